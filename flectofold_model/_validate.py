@@ -1,0 +1,57 @@
+"""Input checks shared by the public functions of ``flectofold_model``.
+
+Every public function converts its inputs with these helpers, so bad input fails at the
+boundary with a message that names the value and the reason.
+"""
+
+from numbers import Real
+
+import numpy as np
+
+
+def real_array(name, value):
+    """Return ``value`` as a float64 array; refuse non-numbers, NaN and infinity."""
+    if isinstance(value, (bool, np.bool_)) or isinstance(value, (str, bytes)):
+        raise TypeError(f'{name} must be a real number or an array of them, got {value!r}')
+    try:
+        array = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError) as error:
+        raise TypeError(
+            f'{name} must be a real number or an array of them, got {value!r}') from error
+    if array.dtype.kind != 'f':
+        raise TypeError(f'{name} must be real, got dtype {array.dtype}')
+    if not np.all(np.isfinite(array)):
+        raise ValueError(f'{name} must be finite, got {_first_bad(array, ~np.isfinite(array))}')
+    return array
+
+
+def real_scalar(name, value):
+    """Return ``value`` as a float; refuse non-numbers, booleans, NaN and infinity."""
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, Real):
+        raise TypeError(f'{name} must be a real number, got {value!r}')
+    number = float(value)
+    if not np.isfinite(number):
+        raise ValueError(f'{name} must be finite, got {number}')
+    return number
+
+
+def in_range(name, array, low, high, unit='', low_open=False, high_open=False):
+    """Check ``low <= array <= high`` (or strict where asked) and return ``array``."""
+    below = array <= low if low_open else array < low
+    above = array >= high if high_open else array > high
+    bad = below | above
+    if np.any(bad):
+        left = '(' if low_open else '['
+        right = ')' if high_open else ']'
+        raise ValueError(
+            f'{name} must lie in {left}{low:g}, {high:g}{right}{unit}, '
+            f'got {_first_bad(array, bad)}{unit}')
+    return array
+
+
+def _first_bad(array, bad):
+    flat = np.flatnonzero(np.broadcast_to(bad, array.shape))
+    if array.ndim == 0:
+        return f'{float(array):g}'
+    index = np.unravel_index(flat[0], array.shape)
+    return f'{float(array[index]):g} at index {tuple(int(i) for i in index)}'
