@@ -26,8 +26,7 @@ set_up() {
   echo "run.sh: setting up $VENV (first run takes about a minute)" >&2
   "$PYTHON" -m venv "$VENV"
   "$VENV/bin/python" -m pip install --quiet --disable-pip-version-check -r requirements.txt
-  "$VENV/bin/python" -m pip install --quiet --disable-pip-version-check --no-deps \
-    --no-build-isolation -e .
+  "$VENV/bin/python" -m pip install --quiet --disable-pip-version-check --no-deps -e .
   echo "$stamp" > "$VENV/.flectofold-stamp"
 }
 
