@@ -3,7 +3,10 @@
 Modules: :mod:`~flectofold_model.panel` (validated panel descriptions),
 :mod:`~flectofold_model.elastica` (the mid-rib), :mod:`~flectofold_model.reflection` (fold
 planes and fold angles), :mod:`~flectofold_model.closure` (closure <-> fold angle <->
-displacement) and :mod:`~flectofold_model.mesh` (folded triangle meshes).
+displacement) and :mod:`~flectofold_model.mesh` (folded triangle meshes); actuation in
+:mod:`~flectofold_model.actuation` (pressure <-> closure), :mod:`~flectofold_model.pneumatics`
+(the plant), :mod:`~flectofold_model.pressure_control` (the loop and its faults) and
+:mod:`~flectofold_model.loop_simulation`.
 """
 
 from flectofold_model.closure import FoldModel, FoldState
