@@ -40,7 +40,11 @@ case "${1:-}" in
     exec "$VENV/bin/python" -m pytest "$@"
     ;;
   "")
-    exec "$VENV/bin/fold_table"
+    # The main job until the ROS bringup lands: the demonstrator module's fold table, then the
+    # 6 x 6 demonstrator through a summer day (figures, and a PNG under out/).
+    "$VENV/bin/fold_table"
+    echo
+    exec "$VENV/bin/day_report" --out "$ROOT/out"
     ;;
   *)
     echo "usage: ./run.sh          set up and run the main job" >&2

@@ -11,6 +11,7 @@ setup(
     name=PACKAGE,
     version='0.1.0',
     packages=find_packages(exclude=['test', 'test.*', 'bench']),
+    package_data={'flectofold_model': ['data/*.yaml']},
     data_files=[
         ('share/ament_index/resource_index/packages', ['resource/' + PACKAGE]),
         (os.path.join('share', PACKAGE), ['package.xml']),
@@ -28,6 +29,7 @@ setup(
     entry_points={
         'console_scripts': [
             'fold_table = flectofold_ros.fold_table:main',
+            'day_report = flectofold_ros.day_report:main',
         ],
     },
 )

@@ -6,7 +6,10 @@ planes and fold angles), :mod:`~flectofold_model.closure` (closure <-> fold angl
 displacement) and :mod:`~flectofold_model.mesh` (folded triangle meshes); actuation in
 :mod:`~flectofold_model.actuation` (pressure <-> closure), :mod:`~flectofold_model.pneumatics`
 (the plant), :mod:`~flectofold_model.pressure_control` (the loop and its faults) and
-:mod:`~flectofold_model.loop_simulation`.
+:mod:`~flectofold_model.loop_simulation`; the facade in :mod:`~flectofold_model.facade`
+(YAML descriptions) and :mod:`~flectofold_model.surfaces` (tessellation); the sun, shading and
+schedule in :mod:`~flectofold_model.sun`, :mod:`~flectofold_model.shading`,
+:mod:`~flectofold_model.scheduler` and :mod:`~flectofold_model.day_report`.
 """
 
 from flectofold_model.closure import FoldModel, FoldState
