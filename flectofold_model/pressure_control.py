@@ -29,11 +29,12 @@ Structure (vectorised over panels, one call per control tick):
 
 from dataclasses import dataclass, fields
 import enum
+import warnings
 
 import numpy as np
 
 from flectofold_model._validate import in_range, real_array, real_scalar
-from flectofold_model.actuation import CushionMap
+from flectofold_model.actuation import CushionMap, UnreachableClosureWarning
 from flectofold_model.pneumatics import (AIR_GAS_CONSTANT, ATMOSPHERIC_PRESSURE_PA,
                                          iso6358_mass_flow, PlantParameters)
 
@@ -159,9 +160,26 @@ class PressureController:
         self.target_pressure_limit_pa = np.minimum(
             cushion_map.pressure_pa[:, -1],
             parameters.max_gauge_pa - 3 * parameters.pressure_margin_pa)
+        self._warn_if_unreachable()
 
     def __len__(self):
         return self.fault.shape[0]
+
+    def _warn_if_unreachable(self):
+        """Warn, naming the reachable closure, where the supply or the maximum cannot close."""
+        supply_limit = (self.plant.supply_pressure_pa - ATMOSPHERIC_PRESSURE_PA
+                        - 2 * self.parameters.supply_margin_pa)
+        reachable_pa = np.minimum(self.target_pressure_limit_pa, supply_limit)
+        short = reachable_pa < self.map.pressure_pa[:, -1]
+        if np.any(short):
+            index = int(np.flatnonzero(short)[0])
+            closure = self.map.closure(np.maximum(reachable_pa, 0.0))[index]
+            warnings.warn(
+                f'panel {index} needs {self.map.pressure_pa[index, -1] / 1e3:.2f} kPa to close, '
+                f'but the supply ({self.plant.supply_pressure_pa / 1e3:.1f} kPa absolute) and '
+                f'max_gauge_pa={self.parameters.max_gauge_pa:g} Pa let it reach closure '
+                f'{closure:.3f}; setpoints above that are held there', UnreachableClosureWarning,
+                stacklevel=3)
 
     def set_safe_action(self, action, panels=None):
         """Choose VENT or HOLD for faulted panels (all, or those selected by ``panels``)."""

@@ -69,6 +69,7 @@ def test_dome_is_synclastic_and_its_cross_curvature_takes_prefold_back():
     assert np.all(facade.gaussian_sign == 1)
     sag_only = build_facade(facade_text('saddle'))  # same convexity along the mid-rib
     assert np.all(facade.surface_prefold_rad < sag_only.surface_prefold_rad)
+    assert np.all(facade.surface_prefold_rad > 0)  # still folds toward closing
 
 
 def test_a_saddle_turned_the_wrong_way_is_reported_and_fixed_by_turning_the_midribs():

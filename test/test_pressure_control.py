@@ -3,7 +3,8 @@
 import numpy as np
 import pytest
 
-from flectofold_model.actuation import ActuationModel, CushionMap, DEMONSTRATOR_ACTUATED
+from flectofold_model.actuation import (ActuationModel, CushionMap, DEMONSTRATOR_ACTUATED,
+                                        UnreachableClosureWarning)
 from flectofold_model.loop_simulation import simulate, step_metrics
 from flectofold_model.pneumatics import (ATMOSPHERIC_PRESSURE_PA, conductance_from_catalogue,
                                          DEMONSTRATOR_PLANT, physical_fill_time_s,
@@ -167,7 +168,8 @@ def test_a_weak_supply_limits_the_target_instead_of_faulting():
     weak = PlantParameters(supply_pressure_pa=ATMOSPHERIC_PRESSURE_PA + 6e3,
                            fill_conductance_m3_s_pa=conductance_from_catalogue(1.0))
     table = demonstrator_map(1)
-    controller = PressureController(table, weak)
+    with pytest.warns(UnreachableClosureWarning, match=r'let it reach closure 0\.79'):
+        controller = PressureController(table, weak)
     plant = PneumaticPlant(weak, table, 1, seed=2, initial_gauge_pa=4e3)
     trace = simulate(controller, plant, 1.0, 15.0)
     assert controller.fault[0] is Fault.NONE
