@@ -200,3 +200,15 @@ def test_small_deflection_matches_a_simply_supported_beam_under_uniform_load():
     beam = 5 * pressure * 0.25 * 1.0**4 / (384 * bending_stiffness)
     assert sag[0] - open_sag[0] == pytest.approx(beam, rel=0.01)
     assert sag[0] < 0.01  # still small deflection
+
+
+def test_cushion_force_is_pressure_times_contact_area(presets):
+    """At the open state the gap is the mount gap everywhere: F = p (W0 - pi g / 2) L_c."""
+    pressure = 5e3
+    force = presets.cushion_force_n(presets.fold.open_k, pressure)
+    for index, panel in enumerate(presets.panels):
+        cushion = panel.cushion
+        contact = cushion.flat_width_m - math.pi * cushion.mount_gap_m / 2
+        assert force[index] == pytest.approx(pressure * contact * cushion.length_m, rel=1e-9)
+    closed = presets.cushion_force_n(presets.fold.closed_k, pressure)
+    assert np.all(closed < force)  # the tube rounds off and pushes over less width
