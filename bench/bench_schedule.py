@@ -17,6 +17,7 @@ from flectofold_model.facade import load_facade  # noqa: E402
 from flectofold_model.panel import DEMONSTRATOR_MODULE, PanelBatch  # noqa: E402
 from flectofold_model.scheduler import Scheduler, SchedulerParameters  # noqa: E402
 from flectofold_model.shading import blocked_fraction  # noqa: E402
+from flectofold_model.shading_table import ShadingTable  # noqa: E402
 
 
 def median_ms(function, repeats):
@@ -55,6 +56,34 @@ def shading_timings():
             print(f'{count:>6} panels, sun {angle:4.0f} deg off normal: {elapsed:8.1f} ms')
 
 
+def table_timings():
+    print('== sun -> closures for 10,000 panels through a shading table, then the scheduler ==')
+    start = time.perf_counter()
+    table = ShadingTable(DEMONSTRATOR_MODULE, step_deg=5.0)
+    print(f'table build (one panel type, 11 closures x 35 x 35 sun directions): '
+          f'{time.perf_counter() - start:.1f} s')
+    rng = np.random.default_rng(4)
+    count = 10000
+    alpha, beta = np.radians(rng.uniform(-60, 60, (2, count)))
+    sun = np.stack([np.tan(alpha), np.tan(beta), np.ones(count)], axis=-1)
+    sun /= np.linalg.norm(sun, axis=-1, keepdims=True)
+    model = FoldModel(PanelBatch.repeat(DEMONSTRATOR_MODULE, 400))
+    for index in (0, 5, 10):
+        closure = table.closures[index]
+        exact = blocked_fraction(model.batch, model.state_from_closure(closure).elastica_k,
+                                 sun[:400], samples=16).blocked_fraction
+        error = np.abs(table.blocked_fractions(sun[:400])[:, index] - exact)
+        print(f'closure {closure:.1f}: table vs ray casting on 400 random suns, mean |error| '
+              f'{error.mean():.4f}, max {error.max():.3f}')
+    scheduler = Scheduler(count, np.full(count, 16.0), SchedulerParameters())
+    clock = [0.0]
+
+    def period():
+        clock[0] += 60.0
+        scheduler.step(clock[0], table.choose(sun, 0.9), dni_w_m2=600.0)
+    print(f'{count} panels, one period (choose + schedule): {median_ms(period, 20):.1f} ms')
+
+
 def day_timing():
     facade = load_facade()
     start = time.perf_counter()
@@ -66,4 +95,5 @@ def day_timing():
 if __name__ == '__main__':
     scheduler_timings()
     shading_timings()
+    table_timings()
     day_timing()

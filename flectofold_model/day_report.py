@@ -34,7 +34,7 @@ from flectofold_model.closure import FoldModel
 from flectofold_model.panel import PanelBatch
 from flectofold_model.pneumatics import ATMOSPHERIC_PRESSURE_PA, DEMONSTRATOR_PLANT
 from flectofold_model.scheduler import Scheduler, SchedulerParameters
-from flectofold_model.shading import blocked_fraction, view_fraction
+from flectofold_model.shading import blocked_fraction, choose_candidate, view_fraction
 
 CANDIDATE_CLOSURES = np.linspace(0.0, 1.0, 11)
 
@@ -166,7 +166,10 @@ def _view_table(fold, samples):
 
 
 def _desired(blocked, view, sunlit, target, window):
-    """(T, N) desired closure by the look-ahead rule of the module docstring."""
+    """Pick the (T, N) desired closures by the shading rule over look-ahead windows.
+
+    Each candidate is judged by its worst blocked fraction over the window's sunlit instants.
+    """
     steps = blocked.shape[0]
     desired = np.empty(blocked.shape[:2])
     for t in range(steps):
@@ -174,12 +177,8 @@ def _desired(blocked, view, sunlit, target, window):
         lit = sunlit[span]
         worst = np.where(lit[..., None], blocked[span], np.inf).min(axis=0)
         any_lit = lit.any(axis=0)
-        meets = worst >= target - 1e-12
-        score = np.where(meets, view, -np.inf)
-        best_meeting = np.argmax(score, axis=-1)
-        fallback = np.argmax(np.where(np.isfinite(worst), worst, -np.inf), axis=-1)
-        choice = np.where(meets.any(axis=-1), best_meeting, fallback)
-        choice = np.where(any_lit, choice, np.argmax(view, axis=-1))
+        worst = np.where(any_lit[:, None], worst, 0.0)
+        choice = choose_candidate(CANDIDATE_CLOSURES, worst, view, any_lit, target)
         desired[t] = CANDIDATE_CLOSURES[choice]
     return desired
 

@@ -275,19 +275,32 @@ def closure_for_shading(fold_model, sun_panel, target_blocked, closures=DEFAULT_
                            max_cells).blocked_fraction.reshape(count, size)
 
     sunlit = sun[:, 2] > SUNLIT_MIN_SZ
-    wanted = np.where(sunlit, target, 0.0)[:, None]
-    feasible = blocked >= wanted
-    reachable = np.any(feasible, axis=1, keepdims=True)
-    first = np.where(reachable, views, blocked)
-    second = np.where(reachable, blocked, views)
-    smaller = np.broadcast_to(-candidates, (count, size))
-    # lexsort sorts by its last key first; the best candidate ends up last.
-    best = np.lexsort((smaller, second, first, feasible), axis=-1)[:, -1]
+    best = choose_candidate(candidates, blocked, views, sunlit, target)
     rows = np.arange(count)
     chosen_blocked = blocked[rows, best]
     return ShadingChoice(closure=candidates[best], blocked_fraction=chosen_blocked,
                          view_fraction=views[rows, best], sunlit=sunlit,
-                         meets_target=chosen_blocked >= wanted[:, 0])
+                         meets_target=chosen_blocked >= np.where(sunlit, target, 0.0))
+
+
+def choose_candidate(closures, blocked, views, sunlit, target):
+    """Index (N,) of the candidate each panel takes by the rule of :func:`closure_for_shading`.
+
+    ``closures`` (C,) are the candidates; ``blocked`` and ``views`` (N, C) their blocked and
+    view fractions (for a look-ahead window, pass each candidate's worst blocked fraction over
+    the window); ``sunlit`` (N,) and ``target`` (N,) or scalar. Shared by every caller so the
+    rule lives in one place.
+    """
+    count, size = blocked.shape
+    wanted = np.where(sunlit, target, 0.0)[:, None]
+    # Interpolated fractions may miss a target they meet by a rounding error.
+    feasible = blocked >= wanted - 1e-9
+    reachable = np.any(feasible, axis=1, keepdims=True)
+    first = np.where(reachable, views, blocked)
+    second = np.where(reachable, blocked, views)
+    smaller = np.broadcast_to(-np.asarray(closures), (count, size))
+    # lexsort sorts by its last key first; the best candidate ends up last.
+    return np.lexsort((smaller, second, first, feasible), axis=-1)[:, -1]
 
 
 def _check_panels(batch, k, sun_panel):
