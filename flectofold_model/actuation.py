@@ -351,6 +351,12 @@ class CushionMap:
                                   0.0, 1.0)
         return volume, compliance * off_open_stop * off_closed_stop
 
+    def pressure_for_closure(self, closure):
+        """Gauge pressure (N,) [Pa] that holds closures (N,) in [0, 1], by interpolation."""
+        position = np.asarray(closure, dtype=np.float64) / (self.closures[1] - self.closures[0])
+        lower = np.minimum(position.astype(np.intp), self.closures.size - 2)
+        return _between(self.pressure_pa, lower, position - lower)
+
     def closure(self, gauge_pressure_pa):
         """Closure (N,) at gauge pressures (N,), by the same interpolation."""
         lower, fraction = self._locate(np.asarray(gauge_pressure_pa, dtype=np.float64))

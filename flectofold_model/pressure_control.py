@@ -194,6 +194,9 @@ class PressureController:
         self._started[selected] = False
         for timer in self._timers.values():
             timer[selected] = 0.0
+        self._expected_change_pa[selected] = 0.0
+        for start in self._window_start_pa.values():
+            start[selected] = self.filtered_gauge_pa[selected]
 
     def _selection(self, panels):
         mask = np.zeros(len(self), dtype=bool)
@@ -204,14 +207,7 @@ class PressureController:
         """Gauge-pressure target [Pa] for closure setpoints (N,) in [0, 1]."""
         closure = in_range('closure', np.broadcast_to(real_array('closure', closure),
                                                       (len(self),)), 0.0, 1.0)
-        spacing = self.map.closures[1] - self.map.closures[0]
-        position = closure / spacing
-        lower = np.minimum(position.astype(np.intp), self.map.closures.size - 2)
-        rows = np.arange(len(self))
-        table = self.map.pressure_pa
-        target = table[rows, lower] + (position - lower) * (table[rows, lower + 1]
-                                                            - table[rows, lower])
-        return np.minimum(target, self.target_pressure_limit_pa)
+        return np.minimum(self.map.pressure_for_closure(closure), self.target_pressure_limit_pa)
 
     def step(self, dt_s, closure_setpoint, measured_pa, measured_supply_pa):
         """Advance every loop by ``dt_s`` and return the valve openings to apply now.

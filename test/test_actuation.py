@@ -140,6 +140,11 @@ def test_cushion_map_interpolates_the_model(presets):
     np.testing.assert_allclose(compliance, slope, rtol=1e-2)
     _, outside = table(np.array([-10.0, 1e6]))
     np.testing.assert_array_equal(outside, 0.0)
+    closures = np.array([0.3, 0.85])
+    np.testing.assert_allclose(table.pressure_for_closure(closures),
+                               presets.pressure_from_closure(closures), rtol=1e-3)
+    np.testing.assert_allclose(table.closure(table.pressure_for_closure(closures)), closures,
+                               atol=1e-9)
 
 
 def test_supply_short_of_the_closed_pressure_warns_with_the_reachable_closure(presets):
