@@ -8,24 +8,15 @@ the same model code on the same closures; the peer calls it once per panel.
 
 import argparse
 import os
-import time
 
 os.environ.setdefault('OMP_NUM_THREADS', '1')
 os.environ.setdefault('OPENBLAS_NUM_THREADS', '1')
 
+from _timing import best_and_median  # noqa: E402
 import numpy as np  # noqa: E402
 
 from flectofold_model import (DEFAULT_TOPOLOGY, DEMONSTRATOR_MODULE, fold_mesh,  # noqa: E402
                               FoldModel, PanelBatch)
-
-
-def best_and_median(function, repeats):
-    times = []
-    for _ in range(repeats):
-        start = time.perf_counter()
-        function()
-        times.append(time.perf_counter() - start)
-    return min(times), float(np.median(times))
 
 
 def batched(model, closures, dtype, out=None):

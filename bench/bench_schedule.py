@@ -9,6 +9,7 @@ import time
 os.environ.setdefault('OMP_NUM_THREADS', '1')
 os.environ.setdefault('OPENBLAS_NUM_THREADS', '1')
 
+from _timing import best_and_median  # noqa: E402
 import numpy as np  # noqa: E402
 
 from flectofold_model.closure import FoldModel  # noqa: E402
@@ -21,12 +22,7 @@ from flectofold_model.shading_table import ShadingTable  # noqa: E402
 
 
 def median_ms(function, repeats):
-    times = []
-    for _ in range(repeats):
-        start = time.perf_counter()
-        function()
-        times.append(time.perf_counter() - start)
-    return 1e3 * float(np.median(times))
+    return 1e3 * best_and_median(function, repeats)[1]
 
 
 def scheduler_timings():

@@ -17,7 +17,7 @@ IGNORED_IN_COPY = shutil.ignore_patterns('.venv', '.git', 'build', 'install', 'l
 
 def venv_tool(name):
     tool = Path(sys.executable).parent / name
-    assert tool.exists(), f'{name} is not installed next to {sys.executable}: run ./run.sh test'
+    assert tool.exists(), f'{name} is not installed next to {sys.executable}: run ./run test'
     return str(tool)
 
 
