@@ -9,7 +9,9 @@ displacement) and :mod:`~flectofold_model.mesh` (folded triangle meshes); actuat
 :mod:`~flectofold_model.loop_simulation`; the facade in :mod:`~flectofold_model.facade`
 (YAML descriptions) and :mod:`~flectofold_model.surfaces` (tessellation); the sun, shading and
 schedule in :mod:`~flectofold_model.sun`, :mod:`~flectofold_model.shading`,
-:mod:`~flectofold_model.scheduler` and :mod:`~flectofold_model.day_report`.
+:mod:`~flectofold_model.shading_table`, :mod:`~flectofold_model.scheduler`,
+:mod:`~flectofold_model.facade_schedule` (sun vector -> closures) and
+:mod:`~flectofold_model.day_report`.
 """
 
 from flectofold_model.closure import FoldModel, FoldState

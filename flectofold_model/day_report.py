@@ -23,17 +23,16 @@ the share of the direct sun on sunlit footprints that is blocked, and the view f
 daylight hours.
 """
 
-from dataclasses import dataclass, fields
+from dataclasses import dataclass
 import math
 
 import numpy as np
 
 from flectofold_model import sun
-from flectofold_model.actuation import ActuatedPanel, ActuationModel, DEMONSTRATOR_ACTUATED
 from flectofold_model.closure import FoldModel
+from flectofold_model.facade_schedule import full_close_air_nl, scheduler_parameters
 from flectofold_model.panel import PanelBatch
-from flectofold_model.pneumatics import ATMOSPHERIC_PRESSURE_PA, DEMONSTRATOR_PLANT
-from flectofold_model.scheduler import Scheduler, SchedulerParameters
+from flectofold_model.scheduler import Scheduler
 from flectofold_model.shading import blocked_fraction, choose_candidate, view_fraction
 
 CANDIDATE_CLOSURES = np.linspace(0.0, 1.0, 11)
@@ -104,14 +103,9 @@ def simulate_day(facade, date_iso, step_s=300.0, samples=16):
     fold = FoldModel(PanelBatch.from_panels(facade.panels))
     blocked = _blocked_table(fold, sun_panel, sunlit, samples)
     view = _view_table(fold, samples)
-    control = dict(facade.control)
-    target = control.pop('shading_target', 0.9)
-    look_ahead = control.pop('look_ahead_s', 0.0)
-    control.pop('period_s', None)
-    parameters = SchedulerParameters(**{f.name: control[f.name]
-                                        for f in fields(SchedulerParameters)
-                                        if f.name in control})
-    window = int(round(look_ahead / step_s))
+    target = facade.control.get('shading_target', 0.9)
+    window = int(round(facade.control.get('look_ahead_s', 0.0) / step_s))
+    parameters = scheduler_parameters(facade)
     desired = _desired(blocked, view, sunlit, target, window)
     closure, filling, air = _schedule(facade, parameters, epochs, desired, dni)
     daylight = position.above_horizon
@@ -123,7 +117,7 @@ def simulate_day(facade, date_iso, step_s=300.0, samples=16):
                                                  closure)[daylight])),
         actuations_per_panel=float(np.mean(_moves(closure))), air_nl=float(np.sum(air)),
         peak_fills=int(np.max(np.sum(filling, axis=1))))
-    full_close = _full_close_air_nl(facade)
+    full_close = full_close_air_nl(facade)
     baselines = [Outcome(blocked_direct_fraction=_weighted(blocked[..., index], weight),
                          view_fraction=float(np.mean(view[:, index])) if daylight.any()
                          else 0.0, actuations_per_panel=0.0, air_nl=air_nl, peak_fills=0)
@@ -184,8 +178,7 @@ def _desired(blocked, view, sunlit, target, window):
 
 
 def _schedule(facade, parameters, epochs, desired, dni):
-    air_cost = _full_close_air_nl(facade)
-    scheduler = Scheduler(len(facade), air_cost, parameters,
+    scheduler = Scheduler(len(facade), full_close_air_nl(facade), parameters,
                           initial_closure=parameters.default_closure, start_s=epochs[0])
     closure, filling, air = [], [], []
     for now, wanted, irradiance in zip(epochs, desired, dni):
@@ -194,19 +187,6 @@ def _schedule(facade, parameters, epochs, desired, dni):
         filling.append(result.filling)
         air.append(result.air_used_nl)
     return np.array(closure), np.array(filling), np.array(air)
-
-
-def _full_close_air_nl(facade):
-    """Free air [NL] to close each panel from open, with the demonstrator's actuation."""
-    panels = [ActuatedPanel(geometry=p, midrib=DEMONSTRATOR_ACTUATED.midrib,
-                            flap=DEMONSTRATOR_ACTUATED.flap, hinge=DEMONSTRATOR_ACTUATED.hinge,
-                            cushion=DEMONSTRATOR_ACTUATED.cushion) for p in facade.panels]
-    model = ActuationModel(panels)
-    dead = DEMONSTRATOR_PLANT.dead_volume_m3
-    closed = (ATMOSPHERIC_PRESSURE_PA + model.closed_pressure_pa) * (
-        model.cushion_volume_m3(model.fold.closed_k) + dead)
-    opened = ATMOSPHERIC_PRESSURE_PA * (model.cushion_volume_m3(model.fold.open_k) + dead)
-    return (closed - opened) / ATMOSPHERIC_PRESSURE_PA * 1e3
 
 
 def _interpolate(table, closure):
