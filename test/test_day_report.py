@@ -7,22 +7,12 @@ from flectofold_model.day_report import plot, simulate_day
 from flectofold_model.facade import build_facade
 from flectofold_ros.day_report import main
 
-SMALL = """
-name: small
-site: {latitude_deg: 48.78, longitude_deg: 9.18, elevation_m: 245, utc_offset_h: 2}
-facade: {azimuth_deg: 180}
-surface: {type: saddle, width_m: 2.2, height_m: 2.2, curvature_u_per_m: -0.08,
-          curvature_v_per_m: 0.08}
-grid: {rows: 2, columns: 2, gap_m: 0.1, midrib_along: v}
-panel: {fold_radius_m: 1.0, midrib_end_width_m: 0.04, hinge_width_m: 0.03}
-control: {shading_target: 0.9, look_ahead_s: 1800, min_dwell_s: 1800, default_closure: 1.0,
-          max_parallel_fills: 1}
-"""
-
 
 @pytest.fixture(scope='module')
-def summer():
-    return simulate_day(build_facade(SMALL), '2026-06-21', step_s=1800.0, samples=12)
+def summer(small_facade_text):
+    text = small_facade_text('shading_target: 0.9, look_ahead_s: 1800, min_dwell_s: 1800, '
+                             'default_closure: 1.0, max_parallel_fills: 1')
+    return simulate_day(build_facade(text), '2026-06-21', step_s=1800.0, samples=12)
 
 
 def test_schedule_trades_view_for_shading_between_the_baselines(summer):

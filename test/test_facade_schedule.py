@@ -11,22 +11,12 @@ from flectofold_model.facade_schedule import (FacadeSchedule, full_close_air_nl,
 from flectofold_model.scheduler import Reason
 from flectofold_model.shading_table import ShadingTable
 
-FACADE = """
-name: small
-site: {latitude_deg: 48.78, longitude_deg: 9.18, elevation_m: 245, utc_offset_h: 2}
-facade: {azimuth_deg: 180}
-surface: {type: saddle, width_m: 2.2, height_m: 2.2, curvature_u_per_m: -0.08,
-          curvature_v_per_m: 0.08}
-grid: {rows: 2, columns: 2, gap_m: 0.1, midrib_along: v}
-panel: {fold_radius_m: 1.0, midrib_end_width_m: 0.04, hinge_width_m: 0.03}
-control: {shading_target: 0.9, default_closure: 1.0, min_dwell_s: 0, deadband: 0.0,
-          rate_per_s: 1.0, max_parallel_fills: 4, capacity_nl: 1000}
-"""
-
 
 @pytest.fixture(scope='module')
-def facade():
-    return build_facade(FACADE)
+def facade(small_facade_text):
+    return build_facade(small_facade_text(
+        'shading_target: 0.9, default_closure: 1.0, min_dwell_s: 0, deadband: 0.0, '
+        'rate_per_s: 1.0, max_parallel_fills: 4, capacity_nl: 1000'))
 
 
 @pytest.fixture(scope='module')

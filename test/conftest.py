@@ -1,0 +1,20 @@
+"""Shared test fixtures."""
+
+import pytest
+
+SMALL_FACADE = """
+name: small
+site: {{latitude_deg: 48.78, longitude_deg: 9.18, elevation_m: 245, utc_offset_h: 2}}
+facade: {{azimuth_deg: 180}}
+surface: {{type: saddle, width_m: 2.2, height_m: 2.2, curvature_u_per_m: -0.08,
+          curvature_v_per_m: 0.08}}
+grid: {{rows: 2, columns: 2, gap_m: 0.1, midrib_along: v}}
+panel: {{fold_radius_m: 1.0, midrib_end_width_m: 0.04, hinge_width_m: 0.03}}
+control: {{{control}}}
+"""
+
+
+@pytest.fixture(scope='session')
+def small_facade_text():
+    """YAML of a 2 x 2 south-facing saddle facade with the given ``control`` mapping body."""
+    return lambda control: SMALL_FACADE.format(control=control)
