@@ -4,6 +4,7 @@ Every public function converts its inputs with these helpers, so bad input fails
 boundary with a message that names the value and the reason.
 """
 
+from dataclasses import fields
 from numbers import Real
 
 import numpy as np
@@ -33,6 +34,13 @@ def real_scalar(name, value):
     if not np.isfinite(number):
         raise ValueError(f'{name} must be finite, got {number}')
     return number
+
+
+def real_fields(instance):
+    """Replace every field of a frozen dataclass by its checked float (see real_scalar)."""
+    for field in fields(instance):
+        object.__setattr__(instance, field.name,
+                           real_scalar(field.name, getattr(instance, field.name)))
 
 
 def in_range(name, array, low, high, unit='', low_open=False, high_open=False):

@@ -12,12 +12,12 @@ In a Flectofold panel the tube lies along the middle of the mid-rib; the back pa
 ``h(s) = mount_gap_m + z(s) - z_open(s)`` with ``z`` the mid-rib's height over its pins.
 """
 
-from dataclasses import dataclass, fields
+from dataclasses import dataclass
 import math
 
 import numpy as np
 
-from flectofold_model._validate import real_scalar
+from flectofold_model._validate import real_fields
 
 
 @dataclass(frozen=True)
@@ -32,9 +32,7 @@ class StripCushion:
     """Gap between back part and mid-rib at the cushion in the open state [m]."""
 
     def __post_init__(self):
-        for field in fields(self):
-            object.__setattr__(self, field.name,
-                               real_scalar(field.name, getattr(self, field.name)))
+        real_fields(self)
         for name in ('flat_width_m', 'length_m'):
             if getattr(self, name) <= 0.0:
                 raise ValueError(f'{name} must be positive, got {getattr(self, name):g} m')

@@ -11,9 +11,9 @@ Flectofold papers grade stiffness by the number of plies per zone but do not pub
 lay-ups, so the thicknesses of the presets are estimates calibrated to the published pressures.
 """
 
-from dataclasses import dataclass, fields
+from dataclasses import dataclass
 
-from flectofold_model._validate import real_scalar
+from flectofold_model._validate import real_fields
 
 #: Effective in-plane modulus of woven glass/epoxy by vacuum infusion [Pa] (estimate).
 GFRP_YOUNGS_MODULUS_PA = 20e9
@@ -33,9 +33,7 @@ class Laminate:
     """Poisson's ratio (dimensionless)."""
 
     def __post_init__(self):
-        for field in fields(self):
-            object.__setattr__(self, field.name,
-                               real_scalar(field.name, getattr(self, field.name)))
+        real_fields(self)
         if self.thickness_m <= 0.0:
             raise ValueError(f'thickness_m must be positive, got {self.thickness_m:g} m')
         if self.youngs_modulus_pa <= 0.0:

@@ -13,7 +13,7 @@ import math
 
 import numpy as np
 
-from flectofold_model._validate import real_scalar
+from flectofold_model._validate import real_fields, real_scalar
 
 
 @dataclass(frozen=True)
@@ -36,9 +36,7 @@ class PanelGeometry:
     """Gap left between the two flap edges at full closure [m]."""
 
     def __post_init__(self):
-        for field in fields(self):
-            object.__setattr__(self, field.name,
-                               real_scalar(field.name, getattr(self, field.name)))
+        real_fields(self)
         self._check_signs()
         self._check_fold_lines()
         self._check_flaps()

@@ -30,14 +30,14 @@ Pressures are in Pa (absolute unless the name says gauge), volumes in m^3, condu
 m^3/(s*Pa), mass flows in kg/s, times in s.
 """
 
-from dataclasses import dataclass, fields
+from dataclasses import dataclass
 import math
 from numbers import Integral
 
 import numpy as np
 from scipy.optimize import brentq
 
-from flectofold_model._validate import in_range, real_array, real_scalar
+from flectofold_model._validate import in_range, real_array, real_fields, real_scalar
 
 #: Standard atmosphere: the vent, leak and relief exhaust against it [Pa].
 ATMOSPHERIC_PRESSURE_PA = 101325.0
@@ -172,9 +172,7 @@ class PlantParameters:
     RK4 for the default valves and relief on a 2 L cushion."""
 
     def __post_init__(self):
-        for field in fields(self):
-            object.__setattr__(self, field.name,
-                               real_scalar(field.name, getattr(self, field.name)))
+        real_fields(self)
         self._check_pressures()
         self._check_non_negative()
 

@@ -33,7 +33,7 @@ import warnings
 
 import numpy as np
 
-from flectofold_model._validate import in_range, real_array, real_scalar
+from flectofold_model._validate import in_range, real_array, real_fields, real_scalar
 from flectofold_model.actuation import CushionMap, UnreachableClosureWarning
 from flectofold_model.pneumatics import (AIR_GAS_CONSTANT, ATMOSPHERIC_PRESSURE_PA,
                                          iso6358_mass_flow, PlantParameters)
@@ -97,11 +97,11 @@ class ControllerParameters:
     """How long the supply must look lost before the fault is raised [s]."""
 
     def __post_init__(self):
+        real_fields(self)
         for field in fields(self):
-            value = real_scalar(field.name, getattr(self, field.name))
-            if value < 0.0:
-                raise ValueError(f'{field.name} must not be negative, got {value:g}')
-            object.__setattr__(self, field.name, value)
+            if getattr(self, field.name) < 0.0:
+                raise ValueError(f'{field.name} must not be negative, got '
+                                 f'{getattr(self, field.name):g}')
         for name in ('max_gauge_pa', 'setpoint_rate_pa_per_s', 'time_constant_s',
                      'integral_time_s', 'stuck_time_s', 'dropout_time_s', 'leak_time_s',
                      'supply_time_s'):

@@ -31,7 +31,7 @@ import numpy as np
 import pandas as pd
 from pvlib.solarposition import spa_python
 
-from flectofold_model._validate import in_range, real_array, real_scalar
+from flectofold_model._validate import in_range, real_array, real_fields, real_scalar
 
 #: Seconds in a calendar day of a fixed-offset clock (no daylight-saving switch) [s].
 SECONDS_PER_DAY = 86400.0
@@ -67,9 +67,7 @@ class Site:
     ``[-100, 100]``; 12 degC, pvlib's default, by default."""
 
     def __post_init__(self):
-        for field in fields(self):
-            object.__setattr__(self, field.name,
-                               real_scalar(field.name, getattr(self, field.name)))
+        real_fields(self)
         in_range('latitude_deg', np.asarray(self.latitude_deg), -90.0, 90.0, ' deg')
         in_range('longitude_deg', np.asarray(self.longitude_deg), -180.0, 180.0, ' deg')
         in_range('elevation_m', np.asarray(self.elevation_m), -500.0, 9000.0, ' m')
