@@ -16,6 +16,7 @@ setup(
         ('share/ament_index/resource_index/packages', ['resource/' + PACKAGE]),
         (os.path.join('share', PACKAGE), ['package.xml']),
         (os.path.join('share', PACKAGE, 'msg_docs'), glob('msg_docs/*.md')),
+        (os.path.join('share', PACKAGE, 'launch'), glob('launch/*launch.[pxy][yma]*')),
     ],
     # Python dependencies are pinned in requirements.txt (the venv) and named as rosdep keys
     # in package.xml (apt installs); setuptools only needs itself, as for every ament package.
@@ -30,6 +31,11 @@ setup(
         'console_scripts': [
             'fold_table = flectofold_ros.fold_table:main',
             'day_report = flectofold_ros.day_report:main',
+            'panel_node = flectofold_ros.panel_node:main',
+            'panel_group = flectofold_ros.panel_group:main',
+            'sun_position_node = flectofold_ros.sun_position_node:main',
+            'coordinator_node = flectofold_ros.coordinator_node:main',
+            'facade = flectofold_ros.facade:main',
         ],
     },
 )

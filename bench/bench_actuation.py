@@ -1,11 +1,13 @@
-"""Actuation figures: the presets, the fold-radius trade-off table and the pressure-loop step.
+"""Actuation figures: presets, fold-radius trade-off, pressure-loop step, plant speed.
 
 Run with ``.venv/bin/python bench/bench_actuation.py``. Everything printed is computed here,
 from flectofold_model; nothing is copied from elsewhere.
 """
 
+import copy
 import math
 
+from _timing import best_and_median
 import numpy as np
 
 from flectofold_model.actuation import (ActuationModel, CushionMap, DEMONSTRATOR_ACTUATED,
@@ -75,7 +77,68 @@ def step_response():
           f'{trace.closure[-1, 0]:.3f}')
 
 
+def plant_speed(count=36, period_s=0.1, hold_s=10.0, fill_s=15.0, repeats=2):
+    """Time the closed loop on the fixed 1 ms and the adaptive sub-step, quiet and filling."""
+    table = CushionMap(ActuationModel([DEMONSTRATOR_ACTUATED] * count))
+    print(f'\n== plant speed: {count} demonstrator panels, closed loop at {period_s:g} s ==')
+    print(f'simulated seconds per second of compute (median of {repeats}, one process), and '
+          f'sub-steps per control period')
+
+    def compare(label, start, setpoint, duration_s):
+        """Run ``start(adaptive) -> (controller, plant)`` on both plants and print."""
+        figures = {}
+        for adaptive in (False, True):
+            runs = []
+
+            def once():
+                controller, plant = start(adaptive)
+                trace = simulate(controller, plant, setpoint, duration_s, period_s)
+                runs.append((trace.gauge_pa, plant.substeps_taken))
+
+            median = best_and_median(once, repeats)[1]
+            gauge, substeps = runs[-1]
+            figures[adaptive] = duration_s / median, substeps * period_s / duration_s, gauge
+        (fixed, fixed_steps, fixed_gauge), (fast, fast_steps, fast_gauge) = (
+            figures[False], figures[True])
+        gap = np.max(np.abs(fast_gauge - fixed_gauge))
+        print(f'{label:<28} fixed {fixed:6.1f} s/s ({fixed_steps:4.0f})   adaptive '
+              f'{fast:6.1f} s/s ({fast_steps:5.1f})   x{fast / fixed:4.1f}   true pressures '
+              f'within {gap:.1g} Pa')
+
+    for closure in (1.0, 0.5):
+        controller = PressureController(table, DEMONSTRATOR_PLANT)
+        plant = PneumaticPlant(DEMONSTRATOR_PLANT, table, count, seed=2, adaptive_step=True)
+        simulate(controller, plant, closure, 20.0, period_s)  # fill and settle, untimed
+
+        def held(adaptive, controller=controller, gauge=plant.gauge_pressure_pa):
+            return copy.deepcopy(controller), PneumaticPlant(
+                DEMONSTRATOR_PLANT, table, count, seed=3, adaptive_step=adaptive,
+                initial_gauge_pa=gauge)
+
+        compare(f'(a) hold at closure {closure:g}', held, closure, hold_s)
+
+    def vented(adaptive):
+        return (PressureController(table, DEMONSTRATOR_PLANT),
+                PneumaticPlant(DEMONSTRATOR_PLANT, table, count, seed=3, adaptive_step=adaptive))
+
+    compare('(b) full fill 0 -> 1', vented, 1.0, fill_s)
+
+    def shut(adaptive):
+        plant = PneumaticPlant(DEMONSTRATOR_PLANT, table, count, adaptive_step=adaptive,
+                               initial_gauge_pa=5e3)
+        for _ in range(round(hold_s / period_s)):
+            plant.step(period_s, 0.0, 0.0)
+
+    fixed, fast = (hold_s / best_and_median(lambda: shut(adaptive), repeats)[1]
+                   for adaptive in (False, True))
+    print(f'{"plant alone, valves shut":<28} fixed {fixed:6.1f} s/s ( 100)   adaptive '
+          f'{fast:6.1f} s/s (  1.0)   x{fast / fixed:4.0f}')
+    print('a hold still moves the valves on the sensor noise; the most active of the panels '
+          'sets the sub-step for all')
+
+
 if __name__ == '__main__':
     presets()
     tradeoff()
     step_response()
+    plant_speed()

@@ -11,7 +11,10 @@ displacement) and :mod:`~flectofold_model.mesh` (folded triangle meshes); actuat
 schedule in :mod:`~flectofold_model.sun`, :mod:`~flectofold_model.shading`,
 :mod:`~flectofold_model.shading_table`, :mod:`~flectofold_model.scheduler`,
 :mod:`~flectofold_model.facade_schedule` (sun vector -> closures) and
-:mod:`~flectofold_model.day_report`.
+:mod:`~flectofold_model.day_report`; what the ROS nodes run: :mod:`~flectofold_model.hardware`
+(the valve/sensor interface and its simulation), :mod:`~flectofold_model.panel_loop` (the
+panels' loops against a driver), :mod:`~flectofold_model.setpoint_guard` (setpoint validation
+and watchdog) and :mod:`~flectofold_model.sim_clock` (a sped-up day).
 """
 
 from flectofold_model.closure import FoldModel, FoldState

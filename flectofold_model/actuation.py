@@ -376,6 +376,17 @@ def _between(table, lower, fraction):
     return table[rows, lower] + fraction * (table[rows, lower + 1] - table[rows, lower])
 
 
+def actuated_like(geometry, template=None):
+    """Build an :class:`ActuatedPanel` of ``geometry`` like ``template`` (laminates, cushion).
+
+    ``template`` defaults to :data:`DEMONSTRATOR_ACTUATED`: a facade description gives each
+    panel's outline and fold lines, the build (laminates and cushion) is the demonstrator's.
+    """
+    template = DEMONSTRATOR_ACTUATED if template is None else template
+    return ActuatedPanel(geometry=geometry, midrib=template.midrib, flap=template.flap,
+                         hinge=template.hinge, cushion=template.cushion)
+
+
 def radius_study(radii_m=(0.5, 0.75, 1.0)):
     """Build the paper's fold-radius study on the 520 x 420 mm prototype outline.
 

@@ -17,7 +17,7 @@ from dataclasses import fields
 
 import numpy as np
 
-from flectofold_model.actuation import ActuatedPanel, ActuationModel, DEMONSTRATOR_ACTUATED
+from flectofold_model.actuation import actuated_like, ActuationModel
 from flectofold_model.pneumatics import ATMOSPHERIC_PRESSURE_PA, DEMONSTRATOR_PLANT
 from flectofold_model.scheduler import Scheduler, SchedulerParameters
 from flectofold_model.shading_table import ShadingTable
@@ -35,10 +35,7 @@ def full_close_air_nl(facade):
     ``(p_closed V_closed - p_atm V_open) / p_atm`` with absolute pressures and the tubing's dead
     volume, from the static actuation model of each panel's own geometry.
     """
-    panels = [ActuatedPanel(geometry=p, midrib=DEMONSTRATOR_ACTUATED.midrib,
-                            flap=DEMONSTRATOR_ACTUATED.flap, hinge=DEMONSTRATOR_ACTUATED.hinge,
-                            cushion=DEMONSTRATOR_ACTUATED.cushion) for p in facade.panels]
-    model = ActuationModel(panels)
+    model = ActuationModel([actuated_like(panel) for panel in facade.panels])
     dead = DEMONSTRATOR_PLANT.dead_volume_m3
     closed = (ATMOSPHERIC_PRESSURE_PA + model.closed_pressure_pa) * (
         model.cushion_volume_m3(model.fold.closed_k) + dead)

@@ -95,6 +95,10 @@ class ControllerParameters:
     only opens to a supply this much above the cushion [Pa]."""
     supply_time_s: float = 0.2
     """How long the supply must look lost before the fault is raised [s]."""
+    hold_band_pa: float = 0.0
+    """Valves stay shut while the reference has reached its target and the filtered pressure
+    is within this of it [Pa]: a panel at rest does not chatter its valves on sensor noise.
+    Three noise standard deviations suit; 0 regulates continuously."""
 
     def __post_init__(self):
         real_fields(self)
@@ -203,6 +207,11 @@ class PressureController:
         mask[slice(None) if panels is None else panels] = True
         return mask
 
+    @property
+    def last_command(self):
+        """The :class:`ValveCommand` of the last :meth:`step`."""
+        return self._last_command
+
     def pressure_for_closure(self, closure):
         """Gauge-pressure target [Pa] for closure setpoints (N,) in [0, 1]."""
         closure = in_range('closure', np.broadcast_to(real_array('closure', closure),
@@ -297,8 +306,11 @@ class PressureController:
         vent_wish = np.where(demand < 0, -demand / vent_capacity, 0.0)
         fill, vent = np.clip(fill_wish, 0.0, 1.0), np.clip(vent_wish, 0.0, 1.0)
         saturated = ((fill_wish > 1.0) & (error > 0)) | ((vent_wish > 1.0) & (error < 0))
-        self._integral = np.where(saturated, self._integral, self._integral + error * dt_s)
-        return fill, vent
+        resting = (self.reference_gauge_pa == self.target_gauge_pa) & \
+            (np.abs(self.target_gauge_pa - pressure) < parameters.hold_band_pa)
+        self._integral = np.where(saturated | resting, self._integral,
+                                  self._integral + error * dt_s)
+        return np.where(resting, 0.0, fill), np.where(resting, 0.0, vent)
 
     def _detect_faults(self, dt_s, measured, readable, supply):
         parameters, timers = self.parameters, self._timers

@@ -1,5 +1,6 @@
 """The pneumatic plant against hand computations, closed forms and independent integration."""
 
+from dataclasses import replace
 import math
 
 import numpy as np
@@ -7,9 +8,13 @@ import pytest
 from scipy.integrate import solve_ivp
 
 from flectofold_model import pneumatics
+from flectofold_model.actuation import ActuationModel, CushionMap, DEMONSTRATOR_ACTUATED
+from flectofold_model.loop_simulation import simulate
 from flectofold_model.pneumatics import (
     AIR_GAS_CONSTANT, ANR_DENSITY_KG_M3, ATMOSPHERIC_PRESSURE_PA, conductance_from_catalogue,
-    iso6358_mass_flow, physical_fill_time_s, PlantParameters, PneumaticPlant)
+    DEMONSTRATOR_PLANT, iso6358_mass_flow, physical_fill_time_s, PlantParameters,
+    PneumaticPlant)
+from flectofold_model.pressure_control import Fault, PressureController
 
 RT = AIR_GAS_CONSTANT * 293.15
 QUIET = {'sensor_noise_pa': 0.0, 'sensor_lag_s': 0.0}
@@ -380,6 +385,214 @@ def test_fill_time_refuses_what_it_cannot_reach(target, keywords, message):
         physical_fill_time_s(PlantParameters(), linear_cushion(), target, **keywords)
 
 
+# -- adaptive sub-step ---------------------------------------------------------------------
+
+
+def demonstrator_map(count):
+    return CushionMap(ActuationModel([DEMONSTRATOR_ACTUATED] * count))
+
+
+def mixed_run(**keywords):
+    """Three panels through fills, vents, a hold, a leak and a jammed fill valve."""
+    plant = PneumaticPlant(PlantParameters(), linear_cushion(), 3, seed=4,
+                           initial_gauge_pa=[0.0, 3e3, 9e3], **keywords)
+    readings = []
+    for fill, vent in (([1.0, 0.3, 0.0], [0.0, 0.0, 0.5]), (0.0, 0.0),
+                       ([0.002, 0.0, 0.0], [0.0, 0.01, 0.0])):
+        plant.step(0.25, fill, vent)
+        readings.append(plant.read_sensor())
+    plant.inject_fill_valve_stuck_open([2])
+    plant.inject_leak([0], 1e-9)
+    plant.step(0.3, 0.0, [0.0, 1.0, 0.0])
+    readings.append(plant.read_sensor())
+    return plant, np.array(readings)
+
+
+def test_without_adaptive_step_the_integration_is_unchanged_bit_for_bit():
+    default, default_readings = mixed_run()
+    fixed, fixed_readings = mixed_run(adaptive_step=False)
+    assert not default.adaptive_step and not fixed.adaptive_step
+    np.testing.assert_array_equal(fixed.absolute_pressure_pa, default.absolute_pressure_pa)
+    np.testing.assert_array_equal(fixed_readings, default_readings)
+    np.testing.assert_array_equal(fixed.free_air_used_m3, default.free_air_used_m3)
+    np.testing.assert_array_equal(fixed.vented_air_m3, default.vented_air_m3)
+    assert fixed.substeps_taken == default.substeps_taken == 3 * 250 + 300
+    # Printed by the plant before adaptive_step existed (the last digits may differ with libm).
+    np.testing.assert_allclose(default.absolute_pressure_pa,
+                               [102081.11602739088, 104319.32426825198, 110935.88731280628],
+                               rtol=1e-12, atol=0.0)
+    np.testing.assert_allclose(default.free_air_used_m3,
+                               [1.7794271447429762e-4, 5.248391218716295e-5,
+                                2.0140000512109866e-4], rtol=1e-10, atol=0.0)
+    adaptive, _readings = mixed_run(adaptive_step=True)
+    assert adaptive.substeps_taken < default.substeps_taken
+
+
+def test_a_wide_open_or_jammed_valve_takes_the_fixed_step_bit_for_bit():
+    results = []
+    for adaptive in (False, True):
+        plant = PneumaticPlant(PlantParameters(**QUIET), linear_cushion(), 2,
+                               adaptive_step=adaptive)
+        plant.inject_fill_valve_stuck_open([1])
+        plant.step(0.5, [1.0, 0.0], 0.0)
+        plant.step(0.5, 0.0, [1.0, 0.0])
+        results.append((plant.absolute_pressure_pa, plant.substeps_taken))
+    np.testing.assert_array_equal(results[1][0], results[0][0])
+    assert results[1][1] == results[0][1] == 1000
+
+
+def test_a_barely_open_fill_crosses_the_open_stop_ramp_as_accurately_as_the_fixed_step():
+    """The compliance ramp above the open stop is where a long sub-step would overshoot."""
+    openings = np.array([0.001, 0.01, 0.1])
+    parameters = replace(DEMONSTRATOR_PLANT, **QUIET)
+
+    def fill(plant, opening):
+        trace = []
+        for _ in range(10):
+            plant.step(0.1, opening, 0.0)
+            trace.append(plant.gauge_pressure_pa)
+        return np.array(trace)
+
+    reference = fill(PneumaticPlant(replace(parameters, max_step_s=1e-4), demonstrator_map(3), 3),
+                     openings)
+    fixed_error = np.max(np.abs(
+        fill(PneumaticPlant(parameters, demonstrator_map(3), 3), openings) - reference), axis=0)
+    assert np.all(reference[-1] > 4.0)  # through the ramp: it ends 33 Pa above the stop
+    for index, opening in enumerate(openings):
+        plant = PneumaticPlant(parameters, demonstrator_map(1), 1, adaptive_step=True)
+        error = np.max(np.abs(fill(plant, opening)[:, 0] - reference[:, index]))
+        # Measured 5e-5, 0.009, 0.4 Pa, each the fixed plant's; one 0.1 s sub-step per call
+        # (no capacitance guard) would be 2, 14 and 18 Pa off.
+        assert error <= 2.0 * fixed_error[index] + 1e-4
+        assert plant.substeps_taken <= 200  # the fixed plant takes 1000
+
+
+def test_a_quiet_hold_takes_one_sub_step_per_call_and_follows_the_leak_exactly():
+    """Valves shut for 60 s at 5 kPa: the healthy leak alone, against solve_ivp."""
+    parameters = replace(DEMONSTRATOR_PLANT, **QUIET)
+    table = demonstrator_map(1)
+    plant = PneumaticPlant(parameters, table, 1, adaptive_step=True, initial_gauge_pa=5e3)
+    for _ in range(600):
+        plant.step(0.1, 0.0, 0.0)
+    fixed_substeps = 600 * round(0.1 / parameters.max_step_s)
+    assert plant.substeps_taken == 600  # 100 times fewer than the fixed plant's 60000
+    assert plant.substeps_taken * 50 <= fixed_substeps
+
+    def leak(_time, gauge):
+        volume, compliance = table(gauge)
+        pressure = gauge[0] + ATMOSPHERIC_PRESSURE_PA
+        capacitance = volume[0] + parameters.dead_volume_m3 + pressure * compliance[0]
+        return [-RT * float(iso6358_mass_flow(pressure, ATMOSPHERIC_PRESSURE_PA,
+                                              parameters.leak_conductance_m3_s_pa, 0.5))
+                / capacitance]
+
+    exact = solve_ivp(leak, (0.0, 60.0), [5e3], rtol=1e-12, atol=1e-9, method='DOP853')
+    assert 5e3 - exact.y[0, -1] > 5.0  # the leak is felt
+    assert plant.gauge_pressure_pa[0] == pytest.approx(exact.y[0, -1], abs=1e-6)
+    plant.step(1.0, 0.0, 0.0)  # longer calls are cut into max_quiet_step_s sub-steps
+    assert plant.substeps_taken == 600 + 4
+
+
+def test_the_relief_valve_within_reach_shortens_the_step():
+    """A 0.5 L chamber at the relief: a 0.1 s sub-step would blow up or overshoot there."""
+    parameters = PlantParameters(**QUIET)
+    for fill, start in ((0.0, 17e3), (0.02, 14e3)):  # venting; filled into the relief
+        traces = []
+        for max_step_s, adaptive in ((1e-4, False), (1e-3, False), (1e-3, True)):
+            plant = PneumaticPlant(replace(parameters, max_step_s=max_step_s),
+                                   rigid_cushion(3e-4), 1, adaptive_step=adaptive,
+                                   initial_gauge_pa=start)
+            trace = []
+            for _ in range(10):
+                plant.step(0.1, fill, 0.0)
+                trace.append(plant.gauge_pressure_pa[0])
+            traces.append(np.array(trace))
+        reference, fixed, adaptive = traces
+        assert max(start, np.max(reference)) > 15e3  # the relief valve is open for a while
+        assert np.max(np.abs(fixed - reference)) < 1e-3
+        # Without the relief in the step rule: 9000 Pa and 31 Pa off.
+        assert np.max(np.abs(adaptive - reference)) < 1e-3
+        assert plant.substeps_taken > 100
+
+
+def test_a_jammed_fill_valve_or_a_large_leak_forces_the_short_step():
+    parameters = replace(DEMONSTRATOR_PLANT, **QUIET)
+    plant = PneumaticPlant(parameters, demonstrator_map(3), 3, adaptive_step=True,
+                           initial_gauge_pa=5e3)
+    plant.step(0.1, 0.0, 0.0)
+    assert plant.substeps_taken == 1
+    plant.inject_fill_valve_stuck_open([2])
+    plant.step(0.1, 0.0, 0.0)  # commanded shut, open all the same
+    assert plant.substeps_taken == 1 + 100
+    assert plant.gauge_pressure_pa[2] > plant.gauge_pressure_pa[0] + 10.0
+    plant.clear_faults()
+    plant.step(0.1, 0.0, 0.0)
+    assert plant.substeps_taken == 1 + 100 + 1
+    plant.inject_leak([1], conductance_from_catalogue(5.0))  # twice the vent valve
+    plant.step(0.1, 0.0, 0.0)
+    assert plant.substeps_taken == 1 + 100 + 1 + 100
+
+
+def bringup_setpoint(time_s):
+    """Open, then 0.8, 0.3 and open again, with holds between; the panels start vented."""
+    return 0.0 if time_s < 1.5 else 0.8 if time_s < 13.0 else 0.3 if time_s < 24.0 else 0.0
+
+
+@pytest.fixture(scope='module')
+def bringup():
+    """Run the ROS bringup's closed loop (0.1 s period) on three demonstrator panels.
+
+    Each on a 0.5 ms fixed-step reference (its error is a quarter of the 1 ms plant's: first
+    order, see the class notes), the 1 ms fixed-step plant and the adaptive one.
+    """
+    runs = {}
+    for name, max_step_s, adaptive in (('reference', 5e-4, False), ('fixed', 1e-3, False),
+                                       ('adaptive', 1e-3, True)):
+        parameters = replace(DEMONSTRATOR_PLANT, max_step_s=max_step_s)
+        table = demonstrator_map(3)
+        plant = PneumaticPlant(parameters, table, 3, seed=1, adaptive_step=adaptive)
+        trace = simulate(PressureController(table, parameters), plant, bringup_setpoint, 38.0,
+                         control_period_s=0.1)
+        runs[name] = trace, plant.substeps_taken
+    return runs
+
+
+def test_the_adaptive_plant_is_as_accurate_as_the_fixed_step_in_the_closed_loop(bringup):
+    reference, fixed, adaptive = (bringup[name][0].gauge_pa
+                                  for name in ('reference', 'fixed', 'adaptive'))
+    assert np.max(reference) > 5e3 and np.max(reference[-1]) < 50.0  # filled and vented
+    fixed_error = np.max(np.abs(fixed - reference), axis=0)
+    adaptive_error = np.max(np.abs(adaptive - reference), axis=0)
+    # Measured against a 1e-4 s reference, per panel: fixed 36.9, 36.9, 1.5e-4 Pa (panels 0
+    # and 1 open the fill valve wide at the open stop: one 1 ms sub-step crosses its
+    # compliance ramp, 15 Pa off, and the fill then runs late); adaptive the same, and within
+    # 2.3e-4 Pa of the fixed plant throughout (0.096 Pa without the capacitance guard).
+    assert np.all(adaptive_error <= fixed_error + 1e-3)
+    assert np.max(adaptive_error) < 50.0
+    assert np.max(np.abs(adaptive - fixed)) < 0.01
+    assert bringup['adaptive'][1] < bringup['fixed'][1] == 38000
+
+
+def test_the_adaptive_plant_raises_no_fault_in_the_closed_loop(bringup):
+    for name in ('reference', 'fixed', 'adaptive'):
+        assert np.all(bringup[name][0].fault == Fault.NONE.value), name
+
+
+def test_a_closed_loop_hold_costs_fifty_times_fewer_sub_steps():
+    """A closed panel held for 60 s; its loop still moves the valves on the sensor noise."""
+    table = demonstrator_map(1)
+    controller = PressureController(table, DEMONSTRATOR_PLANT)
+    plant = PneumaticPlant(DEMONSTRATOR_PLANT, table, 1, seed=1, adaptive_step=True)
+    simulate(controller, plant, 1.0, 20.0, control_period_s=0.1)
+    before = plant.substeps_taken
+    trace = simulate(controller, plant, 1.0, 60.0, control_period_s=0.1)
+    fixed_substeps = 600 * 100
+    assert np.any(trace.fill_opening > 0.0) and np.any(trace.vent_opening > 0.0)
+    assert (plant.substeps_taken - before) * 50 <= fixed_substeps  # measured: 636, 94 x
+    assert np.all(trace.fault == Fault.NONE.value)
+    assert np.all(trace.closure > 0.99)
+
+
 # -- validation ----------------------------------------------------------------------------
 
 
@@ -455,3 +668,25 @@ def test_constants():
     assert pneumatics.AIR_GAS_CONSTANT == 287.05
     assert pneumatics.ANR_DENSITY_KG_M3 == 1.185
     assert pneumatics.ANR_TEMPERATURE_K == 293.15
+
+
+@pytest.mark.parametrize('keywords, message', [
+    ({'max_quiet_step_s': 0.0}, 'max_quiet_step_s must be positive'),
+    ({'max_quiet_step_s': -1.0}, 'max_quiet_step_s must be positive'),
+    ({'max_quiet_step_s': 5e-4}, r'max_quiet_step_s must be at least max_step_s \(0.001 s\)'),
+    ({'max_step_s': 0.5}, r'max_quiet_step_s must be at least max_step_s \(0.5 s\)'),
+    ({'max_quiet_step_s': float('inf')}, 'max_quiet_step_s must be finite'),
+])
+def test_bad_quiet_steps_are_refused(keywords, message):
+    with pytest.raises(ValueError, match=message):
+        PlantParameters(**keywords)
+    assert PlantParameters(max_step_s=0.25).max_quiet_step_s == 0.25  # equal is fine
+
+
+def test_adaptive_step_must_be_a_bool_and_the_counter_is_read_only():
+    with pytest.raises(TypeError, match='adaptive_step must be True or False'):
+        PneumaticPlant(PlantParameters(), linear_cushion(), 1, adaptive_step=1)
+    plant = PneumaticPlant(PlantParameters(), linear_cushion(), 1, adaptive_step=np.True_)
+    assert plant.adaptive_step is True and plant.substeps_taken == 0
+    with pytest.raises(AttributeError):
+        plant.substeps_taken = 5

@@ -1,0 +1,155 @@
+"""The panels' pressure loops against a cushion driver, as the panel nodes run them."""
+
+import numpy as np
+import pytest
+
+from flectofold_model.actuation import actuated_like, ActuationModel, CushionMap
+from flectofold_model.facade import load_facade
+from flectofold_model.hardware import CushionDriver, SimulatedCushions
+from flectofold_model.panel_loop import facade_loops, PanelLoops
+from flectofold_model.pneumatics import DEMONSTRATOR_PLANT, PneumaticPlant
+from flectofold_model.pressure_control import ControllerParameters, Fault
+
+IDS = ['r00c00', 'r03c02']
+
+
+@pytest.fixture(scope='module')
+def facade():
+    return load_facade()
+
+
+def loops_of(facade, **options):
+    return facade_loops(facade, IDS, **options)
+
+
+@pytest.fixture(scope='module')
+def settled(facade):
+    loops = loops_of(facade)
+    loops.advance_to(1000.0)
+    loops.setpoint[:] = [0.8, 0.3]
+    loops.advance_to(1040.0)
+    return loops
+
+
+def test_panels_reach_their_setpoints(settled):
+    np.testing.assert_allclose(settled.closure, [0.8, 0.3], atol=0.01)
+    assert all(fault is Fault.NONE for fault in settled.fault)
+    assert settled.time_s == pytest.approx(1040.0)
+
+
+def test_fold_angle_follows_the_fold_model(settled):
+    exact = [settled.model.fold.state_from_closure(c).apex_fold_angle_rad[i]
+             for i, c in enumerate(settled.closure)]
+    np.testing.assert_allclose(settled.fold_angle_rad, exact, rtol=1e-3)
+    assert settled.fold_angle_rad[0] > settled.fold_angle_rad[1]
+
+
+def test_measured_pressure_is_absolute_and_matches_the_map(settled):
+    gauge = settled.measured_pa - 101325.0
+    np.testing.assert_allclose(gauge, settled.map.pressure_for_closure(np.array([0.8, 0.3])),
+                               atol=150.0)
+
+
+def test_free_air_is_counted(settled):
+    assert np.all(settled.free_air_used_nl > 1.0)
+    assert settled.free_air_used_nl[0] > settled.free_air_used_nl[1]
+
+
+def test_one_jump_or_many_small_ticks_give_the_same_run(facade):
+    jumped, ticked = loops_of(facade), loops_of(facade)
+    for loops in (jumped, ticked):
+        loops.advance_to(0.0)
+        loops.setpoint[:] = 0.6
+    jumped.advance_to(20.0)
+    for now in np.arange(1, 201) * 0.1:
+        ticked.advance_to(now)
+    np.testing.assert_array_equal(jumped.measured_pa, ticked.measured_pa)
+    np.testing.assert_array_equal(jumped.gauge_pa, ticked.gauge_pa)
+
+
+def test_repeated_and_partial_clock_readings_run_no_extra_period(facade):
+    loops = loops_of(facade)
+    assert loops.advance_to(5.0).periods == 0
+    assert loops.advance_to(5.25).periods == 2
+    assert loops.advance_to(5.25).periods == 0
+    assert loops.advance_to(5.3).periods == 1
+    assert loops.time_s == pytest.approx(5.3)
+
+
+def test_a_clock_leap_is_capped_and_reported(facade):
+    loops = loops_of(facade, control_period_s=0.1)
+    loops.max_catch_up_s = 10.0
+    loops.advance_to(0.0)
+    advance = loops.advance_to(3600.0)
+    assert advance.periods == 100
+    assert advance.skipped_s == pytest.approx(3590.0)
+    assert loops.time_s == pytest.approx(3600.0)
+
+
+def test_a_clock_going_back_restarts_without_simulating(facade):
+    loops = loops_of(facade)
+    loops.advance_to(100.0)
+    loops.advance_to(110.0)
+    assert loops.advance_to(50.0).periods == 0
+    assert loops.time_s == 50.0
+    assert loops.advance_to(51.0).periods == 10
+
+
+class RealTimeDriver(CushionDriver):
+    """A driver whose time passes by itself: it records what the loop asks of it."""
+
+    def __init__(self, plant):
+        self.plant, self.writes = plant, []
+
+    count = property(lambda self: self.plant.count)
+    circuit = property(lambda self: self.plant.parameters)
+
+    def read_pressure_pa(self):
+        return self.plant.read_sensor()
+
+    def read_supply_pa(self):
+        return self.plant.read_supply_sensor()
+
+    def write_valves(self, fill_opening, vent_opening):
+        self.writes.append((np.array(fill_opening), np.array(vent_opening)))
+
+
+def test_a_real_time_driver_gets_one_period_per_call_and_is_never_advanced(facade):
+    model = ActuationModel([actuated_like(facade.panels[0])])
+    driver = RealTimeDriver(PneumaticPlant(DEMONSTRATOR_PLANT, CushionMap(model), 1))
+    loops = PanelLoops(model, driver, control_period_s=0.1)
+    loops.setpoint[:] = 1.0
+    loops.advance_to(0.0)
+    assert loops.advance_to(0.02).periods == 0  # too early for a period
+    assert loops.advance_to(2.0).periods == 1  # late: one period, not twenty
+    assert len(driver.writes) == 1 and driver.writes[0][0][0] > 0.0
+    with pytest.raises(NotImplementedError):
+        driver.advance(0.1)
+
+
+def test_close_shuts_the_valves(facade):
+    loops = loops_of(facade)
+    loops.setpoint[:] = 1.0
+    loops.advance_to(0.0)
+    loops.advance_to(1.0)
+    assert np.all(loops.driver._fill > 0.0)
+    loops.close()
+    assert not np.any(loops.driver._fill) and not np.any(loops.driver._vent)
+
+
+def test_bad_construction_is_refused(facade):
+    model = ActuationModel([actuated_like(facade.panels[0])])
+    driver = SimulatedCushions(PneumaticPlant(DEMONSTRATOR_PLANT, CushionMap(model), 2))
+    with pytest.raises(ValueError, match='2 channels for 1 panels'):
+        PanelLoops(model, driver)
+    one = SimulatedCushions(PneumaticPlant(DEMONSTRATOR_PLANT, CushionMap(model), 1))
+    with pytest.raises(ValueError, match='at least twice the period'):
+        PanelLoops(model, one, 0.5, ControllerParameters(time_constant_s=0.4))
+    with pytest.raises(ValueError, match='control_period_s'):
+        PanelLoops(model, one, 0.0)
+    with pytest.raises(ValueError, match='unknown panel id.*r09c09'):
+        facade_loops(facade, ['r09c09'])
+    with pytest.raises(ValueError, match='twice'):
+        facade_loops(facade, ['r00c00', 'r00c00'])
+    with pytest.raises(ValueError, match='fill_opening'):
+        one.write_valves(np.array([1.5]), np.array([0.0]))
