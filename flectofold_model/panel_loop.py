@@ -60,7 +60,7 @@ class PanelLoops:
     """
 
     def __init__(self, model, driver, control_period_s=0.1, parameters=ControllerParameters(),
-                 max_catch_up_s=600.0, quiet_period_s=None):
+                 max_catch_up_s=3600.0, quiet_period_s=None):
         if not isinstance(model, ActuationModel):
             raise TypeError(f'model must be an ActuationModel, got {type(model).__name__}')
         if not isinstance(driver, CushionDriver):

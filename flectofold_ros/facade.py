@@ -35,6 +35,7 @@ from flectofold_ros.sun_position_node import SunPositionNode
 
 CLOCK_RATE_HZ = 50.0
 CATCH_UP_WAIT_S = 60.0
+MAX_LAG_S = 300.0
 
 
 @dataclass(frozen=True)
@@ -81,8 +82,8 @@ def parse_arguments(argv):
     parser.add_argument('--facade', default='', help='facade YAML (default: the embedded '
                         '6 x 6 anticlastic demonstrator)')
     parser.add_argument('--date', default='2026-06-21', help='local date of the day')
-    parser.add_argument('--start', default='06:00', help='local start time HH:MM')
-    parser.add_argument('--end', default='20:00', help='local end time HH:MM')
+    parser.add_argument('--start', default='12:00', help='local start time HH:MM')
+    parser.add_argument('--end', default='15:00', help='local end time HH:MM')
     parser.add_argument('--speedup', type=float, default=360.0,
                         help='simulated seconds per wall second (default 360)')
     parser.add_argument('--panel-processes', type=int, default=2,
@@ -154,6 +155,7 @@ class Monitor(Node):
         self.panels = {}
         self.started = time.monotonic()
         self.finished_at = None
+        self.holds, self.held_s, self.held_since = 0, 0.0, None
         self.create_subscription(DiagnosticArray, '/diagnostics', self._on_diagnostics, 100)
         steady = Clock(clock_type=ClockType.STEADY_TIME)
         self.create_timer(progress_period_s, self.print_progress, clock=steady)
@@ -167,7 +169,20 @@ class Monitor(Node):
                     if isinstance(status.level, bytes) else int(status.level)
                 self.panels[status.hardware_id] = values
 
+    def _hold_clock_for_laggards(self):
+        """Hold simulated time while a panel loop is more than MAX_LAG_S behind it."""
+        loop_times = self.numbers('loop_time_s')
+        lagging = len(loop_times) == len(self.facade) and \
+            self.sun.sim_epoch_s - min(loop_times) > MAX_LAG_S
+        if lagging and not self.sun.paused:
+            self.holds += 1
+            self.held_since = time.monotonic()
+        elif not lagging and self.sun.paused:
+            self.held_s += time.monotonic() - self.held_since
+        self.sun.paused = lagging
+
     def _check_finished(self):
+        self._hold_clock_for_laggards()
         if self.sun.finished and self.finished_at is None:
             self.finished_at = time.monotonic()
         if self.finished_at is None:
@@ -214,7 +229,9 @@ def summary_lines(monitor, plan, wall_s, children_cpu_s, interrupted):
              f'{_local_time(monitor.sun.sim_epoch_s, facade.utc_offset_h)} (local)',
              f'  simulated {sim_s / 3600:.2f} h in {wall_s:.1f} s wall: '
              f'{sim_s / max(wall_s, 1e-9):.0f}x real time (asked {plan.speedup:g}x)',
-             f'  panels reporting: {len(monitor.panels)}/{len(facade)}']
+             f'  panels reporting: {len(monitor.panels)}/{len(facade)}; clock held '
+             f'{monitor.holds} times, {monitor.held_s:.1f} s wall, for panel loops more than '
+             f'{MAX_LAG_S:g} s behind']
     if coordinator.schedule is not None:
         moves = coordinator.schedule.scheduler.moves_today
         lines.append(f'  coordinator: {coordinator.decisions} decisions, moves per panel '

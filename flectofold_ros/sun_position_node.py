@@ -179,6 +179,7 @@ class SunPositionNode(Node):
             raise ValueError(_SIM_TIME_REFUSED)
         self._clock_publisher = self.create_publisher(ClockMessage, CLOCK_TOPIC, 10)
         self._steady = Clock(clock_type=ClockType.STEADY_TIME)
+        self.paused = False  # an in-process bringup holds the clock while nodes catch up
         self._last_tick = None  # the first tick: the simulated day starts when spun
         self._elapsed_s = 0.0
         self._longest_tick_s = 2.0 / self._value('clock_rate_hz')
@@ -193,7 +194,8 @@ class SunPositionNode(Node):
             # A starved process (a long callback beside this timer) slows simulated time
             # down rather than leaping it ahead of the nodes it drives.
             tick_s = (now - self._last_tick).nanoseconds / NS_PER_S
-            self._elapsed_s += min(tick_s, self._longest_tick_s)
+            if not self.paused:
+                self._elapsed_s += min(tick_s, self._longest_tick_s)
         self._last_tick = now
         elapsed_s = self._elapsed_s
         self._sim_epoch_s = self.simulated_clock.sim_epoch_s(elapsed_s)

@@ -1,7 +1,7 @@
 """Launch a whole facade through a simulated day, one process per node group.
 
 ``ros2 launch flectofold_ros facade.launch.py [facade_file:=PATH] [date:=2026-06-21]
-[start:=06:00] [end:=20:00] [speedup:=360.0] [panel_processes:=2]``
+[start:=12:00] [end:=15:00] [speedup:=360.0] [panel_processes:=2]``
 
 The launch-time counterpart of ``ros2 run flectofold_ros facade --panel-processes N``: the
 same :class:`flectofold_ros.facade.DayPlan` and the same node parameters, but every node in
@@ -31,8 +31,8 @@ PACKAGE = 'flectofold_ros'
 ARGUMENTS = {
     'facade_file': ('', 'Facade description YAML; empty: the embedded 6 x 6 demonstrator'),
     'date': ('2026-06-21', 'Local date of the simulated day (YYYY-MM-DD)'),
-    'start': ('06:00', 'Local start time of the simulated day (HH:MM)'),
-    'end': ('20:00', 'Local end time of the simulated day (HH:MM)'),
+    'start': ('12:00', 'Local start time of the simulated day (HH:MM)'),
+    'end': ('15:00', 'Local end time of the simulated day (HH:MM)'),
     'speedup': ('360.0', 'Simulated seconds per wall second, in [1, 10000]'),
     'panel_processes': ('2', 'Number of panel_group processes the panels are split over, '
                              'from 1 to the number of panels'),

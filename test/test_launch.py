@@ -160,8 +160,8 @@ def _check_bringup(nodes, facade, groups, facade_file):
     assert sun_parameters['mode'] == 'simulated'
     assert all(type(value) in (float, str) for value in sun_parameters.values())
     offset = f'{int(facade.utc_offset_h):+03d}:00'
-    assert sun_parameters['start_time'] == f'2026-06-21T06:00:00{offset}'
-    assert sun_parameters['end_time'] == f'2026-06-21T20:00:00{offset}'
+    assert sun_parameters['start_time'] == f'2026-06-21T12:00:00{offset}'
+    assert sun_parameters['end_time'] == f'2026-06-21T15:00:00{offset}'
     assert sun_parameters['speedup'] == 360.0
 
     (coordinator,) = _by_executable(nodes, 'coordinator_node')
@@ -206,8 +206,8 @@ def test_launch_file_is_installed_by_setup_glob():
 
 def test_declares_the_bringup_defaults(launch_module):
     defaults = _defaults(launch_module.generate_launch_description())
-    assert defaults == {'facade_file': '', 'date': '2026-06-21', 'start': '06:00',
-                        'end': '20:00', 'speedup': '360.0', 'panel_processes': '2'}
+    assert defaults == {'facade_file': '', 'date': '2026-06-21', 'start': '12:00',
+                        'end': '15:00', 'speedup': '360.0', 'panel_processes': '2'}
 
 
 def test_defaults_launch_the_embedded_demonstrator(launch_module):
@@ -238,7 +238,7 @@ def test_panel_processes_outside_the_panel_count_raises(launch_module, small_fac
 @pytest.mark.parametrize('overrides, message', [
     ({'speedup': '0.5'}, 'speedup must lie in'),
     ({'speedup': 'fast'}, 'speedup must be a number'),
-    ({'start': '21:00'}, 'end 20:00 must be after start 21:00'),
+    ({'start': '16:00'}, 'end 15:00 must be after start 16:00'),
 ])
 def test_bad_day_arguments_name_the_launch_argument(launch_module, overrides, message):
     with pytest.raises(ValueError, match=message):
