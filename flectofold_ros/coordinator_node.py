@@ -12,7 +12,6 @@ import sys
 
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import Vector3Stamped
-from rcl_interfaces.msg import FloatingPointRange, ParameterDescriptor, ParameterType
 import rclpy
 from rclpy.clock import Clock, ClockType
 from rclpy.exceptions import ParameterException
@@ -26,30 +25,23 @@ from flectofold_model.facade import DEFAULT_FACADE, FacadeError, load_facade
 from flectofold_model.facade_schedule import FacadeSchedule, representative_panel
 from flectofold_model.shading_table import ShadingTable
 from flectofold_model.sun import sun_vector_enu
+from flectofold_ros.parameters import declare_all, double, string
 from flectofold_ros.spinning import print_usage_if_asked
 
 LATCHED = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL)
 
 
-def _float(description, low, high):
-    return ParameterDescriptor(
-        type=ParameterType.PARAMETER_DOUBLE, description=description, read_only=True,
-        floating_point_range=[FloatingPointRange(from_value=low, to_value=high)])
-
-
 PARAMETERS = {
-    'facade_file': ('', ParameterDescriptor(
-        type=ParameterType.PARAMETER_STRING, read_only=True,
-        description='Facade description YAML; empty: the embedded demonstrator')),
-    'setpoint_period_s': (1.0, _float('Heartbeat: every setpoint is repeated this often [s]',
+    'facade_file': ('', string('Facade description YAML; empty: the embedded demonstrator')),
+    'setpoint_period_s': (1.0, double('Heartbeat: every setpoint is repeated this often [s]',
                                       0.05, 3600.0)),
-    'sun_timeout_s': (900.0, _float('A sun vector older than this is not used [s]',
+    'sun_timeout_s': (900.0, double('A sun vector older than this is not used [s]',
                                     1.0, 86400.0)),
-    'weather_timeout_s': (60.0, _float('A wind or DNI reading older than this is dropped [s]',
+    'weather_timeout_s': (60.0, double('A wind or DNI reading older than this is dropped [s]',
                                        1.0, 86400.0)),
-    'override_duration_s': (0.0, _float('Life of an override [s]; 0: the facade default',
+    'override_duration_s': (0.0, double('Life of an override [s]; 0: the facade default',
                                         0.0, 604800.0)),
-    'diagnostics_period_s': (1.0, _float('Period of /diagnostics, wall clock [s]', 0.1, 60.0)),
+    'diagnostics_period_s': (1.0, double('Period of /diagnostics, wall clock [s]', 0.1, 60.0)),
 }
 
 
@@ -59,8 +51,7 @@ class CoordinatorNode(Node):
     def __init__(self, **kwargs):
         kwargs.setdefault('namespace', '/facade')
         super().__init__('coordinator', **kwargs)
-        for name, (default, descriptor) in PARAMETERS.items():
-            self.declare_parameter(name, default, descriptor)
+        declare_all(self, PARAMETERS)
         path = self._value('facade_file') or DEFAULT_FACADE
         self.facade = load_facade(path)
         self.period_s = float(self.facade.control.get('period_s', 60.0))

@@ -11,8 +11,7 @@ import re
 import sys
 
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
-from rcl_interfaces.msg import (FloatingPointRange, ParameterDescriptor, ParameterType,
-                                SetParametersResult)
+from rcl_interfaces.msg import SetParametersResult
 import rclpy
 from rclpy.clock import Clock, ClockType
 from rclpy.exceptions import ParameterException
@@ -27,52 +26,45 @@ from flectofold_model.facade import DEFAULT_FACADE, FacadeError, load_facade
 from flectofold_model.panel_loop import facade_loops
 from flectofold_model.pressure_control import ControllerParameters, Fault, SafeAction
 from flectofold_model.setpoint_guard import SafeBehaviour, SetpointGuard, SetpointState
+from flectofold_ros.parameters import declare_all, double, string
 from flectofold_ros.spinning import make_executor, print_usage_if_asked, spin_until
 
 PANEL_ID = re.compile(r'r\d{2}c\d{2}')
 LATCHED = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL)
 
 
-def _float(description, low, high, read_only=True):
-    return ParameterDescriptor(
-        type=ParameterType.PARAMETER_DOUBLE, description=description, read_only=read_only,
-        floating_point_range=[FloatingPointRange(from_value=low, to_value=high)])
-
-
-def _string(description, read_only=True, choices=None):
-    constraints = f'one of: {", ".join(choices)}' if choices else ''
-    return ParameterDescriptor(type=ParameterType.PARAMETER_STRING, description=description,
-                               read_only=read_only, additional_constraints=constraints)
+def _choices(description, read_only=True, choices=()):
+    return string(description, read_only, f'one of: {", ".join(choices)}')
 
 
 #: name -> (default, descriptor). The loop settings (read-only) must agree between the panel
 #: nodes of one process, since they share one vectorised loop.
 PARAMETERS = {
-    'panel_id': ('', _string('Panel id rNNcNN; empty: the last token of the namespace')),
-    'facade_file': ('', _string('Facade description YAML; empty: the embedded demonstrator')),
-    'hardware': ('simulated', _string('Cushion driver', choices=['simulated'])),
-    'control_period_s': (0.1, _float('Pressure loop period [s]', 0.01, 1.0)),
-    'control.time_constant_s': (0.4, _float(
+    'panel_id': ('', string('Panel id rNNcNN; empty: the last token of the namespace')),
+    'facade_file': ('', string('Facade description YAML; empty: the embedded demonstrator')),
+    'hardware': ('simulated', _choices('Cushion driver', choices=['simulated'])),
+    'control_period_s': (0.1, double('Pressure loop period [s]', 0.01, 1.0)),
+    'control.time_constant_s': (0.4, double(
         'Closed-loop time constant [s], at least twice control_period_s', 0.02, 10.0)),
-    'control.hold_band_pa': (60.0, _float(
+    'control.hold_band_pa': (60.0, double(
         'At rest the valves stay shut within this of the target [Pa]; 3 sensor sigmas',
         0.0, 1000.0)),
-    'simulation.quiet_period_s': (2.0, _float(
+    'simulation.quiet_period_s': (2.0, double(
         'Simulated cushions: longest loop period while every panel of the process rests [s]',
         0.01, 60.0)),
-    'max_gauge_pressure_pa': (12e3, _float('Hard cushion pressure limit [Pa gauge]',
+    'max_gauge_pressure_pa': (12e3, double('Hard cushion pressure limit [Pa gauge]',
                                            2e3, 14e3)),
-    'publish_rate_hz': (10.0, _float('Rate of pressure, joint_states and closure [Hz]',
+    'publish_rate_hz': (10.0, double('Rate of pressure, joint_states and closure [Hz]',
                                      0.001, 100.0)),
-    'diagnostics_period_s': (1.0, _float('Period of /diagnostics, wall clock [s]', 0.1, 60.0)),
-    'setpoint_timeout_s': (10.0, _float(
+    'diagnostics_period_s': (1.0, double('Period of /diagnostics, wall clock [s]', 0.1, 60.0)),
+    'setpoint_timeout_s': (10.0, double(
         'No valid setpoint for this long (ROS time) starts the safe behaviour [s]',
         0.1, 86400.0, read_only=False)),
-    'safe_behaviour': ('vent', _string('After a setpoint timeout: vent (open) or hold',
-                                       read_only=False, choices=['vent', 'hold'])),
-    'fault_action': ('vent', _string('On a latched circuit fault: vent or hold (a fill '
-                                     'valve stuck open always vents)', read_only=False,
-                                     choices=['vent', 'hold'])),
+    'safe_behaviour': ('vent', _choices('After a setpoint timeout: vent (open) or hold',
+                                        read_only=False, choices=['vent', 'hold'])),
+    'fault_action': ('vent', _choices('On a latched circuit fault: vent or hold (a fill '
+                                      'valve stuck open always vents)', read_only=False,
+                                      choices=['vent', 'hold'])),
 }
 LOOP_SETTINGS = ('facade_file', 'hardware', 'control_period_s', 'control.time_constant_s',
                  'control.hold_band_pa', 'simulation.quiet_period_s', 'max_gauge_pressure_pa')
@@ -86,8 +78,7 @@ class PanelNode(Node):
         if kwargs['namespace'] is None:
             del kwargs['namespace']
         super().__init__('panel', **kwargs)
-        for name, (default, descriptor) in PARAMETERS.items():
-            self.declare_parameter(name, default, descriptor)
+        declare_all(self, PARAMETERS)
         self.panel_id = self._resolve_id(panel_id)
         self.loops = None
         self.guard = SetpointGuard(self._value('setpoint_timeout_s'),

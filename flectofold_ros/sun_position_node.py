@@ -10,8 +10,7 @@ import sys
 
 from builtin_interfaces.msg import Time
 from geometry_msgs.msg import Vector3, Vector3Stamped
-from rcl_interfaces.msg import (FloatingPointRange, ParameterDescriptor, ParameterType,
-                                SetParametersResult)
+from rcl_interfaces.msg import SetParametersResult
 import rclpy
 from rclpy.clock import Clock, ClockType
 from rclpy.exceptions import ParameterException
@@ -21,6 +20,7 @@ from rosgraph_msgs.msg import Clock as ClockMessage
 
 from flectofold_model.sim_clock import SimulatedClock
 from flectofold_model.sun import epoch_from_iso, Site, sun_vector_enu
+from flectofold_ros.parameters import declare_all, double, string
 from flectofold_ros.spinning import print_usage_if_asked
 
 NODE_NAME = 'sun_position'
@@ -36,42 +36,31 @@ _SIM_TIME_REFUSED = ('use_sim_time must be false in mode simulated: the node pub
                      'itself, from the steady clock')
 
 
-def _float(description, low, high, read_only=True):
-    return ParameterDescriptor(
-        type=ParameterType.PARAMETER_DOUBLE, description=description, read_only=read_only,
-        floating_point_range=[FloatingPointRange(from_value=low, to_value=high)])
-
-
-def _string(description, read_only=True, constraints=''):
-    return ParameterDescriptor(type=ParameterType.PARAMETER_STRING, description=description,
-                               read_only=read_only, additional_constraints=constraints)
-
-
 _ISO = 'ISO 8601 with a UTC offset, e.g. 2026-06-21T04:00:00+02:00'
 
 #: name -> (default, descriptor).
 PARAMETERS = {
-    'latitude_deg': (48.7784, _float('Geodetic latitude of the site, north positive [deg]',
+    'latitude_deg': (48.7784, double('Geodetic latitude of the site, north positive [deg]',
                                      -90.0, 90.0)),
-    'longitude_deg': (9.18, _float('Longitude of the site, east positive [deg]',
+    'longitude_deg': (9.18, double('Longitude of the site, east positive [deg]',
                                    -180.0, 180.0)),
-    'elevation_m': (245.0, _float('Height of the site above mean sea level [m]',
+    'elevation_m': (245.0, double('Height of the site above mean sea level [m]',
                                   -500.0, 9000.0)),
-    'mode': ('wall', _string('wall: follow the ROS clock; simulated: publish /clock and run '
-                             'a simulated day', constraints=f'one of: {", ".join(MODES)}')),
-    'start_time': ('2026-06-21T04:00:00+02:00', _string(
+    'mode': ('wall', string('wall: follow the ROS clock; simulated: publish /clock and run '
+                            'a simulated day', constraints=f'one of: {", ".join(MODES)}')),
+    'start_time': ('2026-06-21T04:00:00+02:00', string(
         'Start of the simulated day (mode simulated)', constraints=_ISO)),
-    'end_time': ('2026-06-21T22:00:00+02:00', _string(
+    'end_time': ('2026-06-21T22:00:00+02:00', string(
         'End of the simulated day, after start_time (mode simulated)', constraints=_ISO)),
-    'speedup': (360.0, _float('Simulated seconds per wall second (mode simulated) [-]',
+    'speedup': (360.0, double('Simulated seconds per wall second (mode simulated) [-]',
                               1.0, 10000.0)),
-    'clock_rate_hz': (50.0, _float('Rate of /clock, steady clock (mode simulated) [Hz]',
+    'clock_rate_hz': (50.0, double('Rate of /clock, steady clock (mode simulated) [Hz]',
                                    1.0, 1000.0)),
-    'publish_period_s': (60.0, _float(
+    'publish_period_s': (60.0, double(
         'Time between sun messages [s]: simulated seconds in mode simulated, ROS-clock '
         'seconds in mode wall', 0.01, 3600.0, read_only=False)),
-    'frame_id': ('site_enu', _string('header.frame_id of the sun vector: the site ENU frame '
-                                     '(x east, y north, z up)', read_only=False)),
+    'frame_id': ('site_enu', string('header.frame_id of the sun vector: the site ENU frame '
+                                    '(x east, y north, z up)', read_only=False)),
 }
 
 
@@ -92,8 +81,7 @@ class SunPositionNode(Node):
             raise
 
     def _configure(self):
-        for name, (default, descriptor) in PARAMETERS.items():
-            self.declare_parameter(name, default, descriptor)
+        declare_all(self, PARAMETERS)
         self.site = Site(self._value('latitude_deg'), self._value('longitude_deg'),
                          self._value('elevation_m'))
         self.mode = self._value('mode')
