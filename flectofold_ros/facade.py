@@ -218,13 +218,13 @@ def _local_time(epoch_s, utc_offset_h):
     return datetime.datetime.fromtimestamp(epoch_s, zone).strftime('%Y-%m-%d %H:%M')
 
 
-def summary_lines(monitor, plan, wall_s, children_cpu_s, interrupted):
+def summary_lines(monitor, plan, wall_s, interrupted):
     """Return the end-of-run summary: the day's figures, then CPU and memory."""
     facade, coordinator = monitor.facade, monitor.coordinator
     sim_s = monitor.sun.sim_epoch_s - datetime.datetime.fromisoformat(plan.start_iso).timestamp()
     usage = resource.getrusage(resource.RUSAGE_SELF)
     children = resource.getrusage(resource.RUSAGE_CHILDREN)
-    cpu_s = usage.ru_utime + usage.ru_stime + children_cpu_s
+    cpu_s = usage.ru_utime + usage.ru_stime + children.ru_utime + children.ru_stime
     lines = [f'{facade.name}: {"interrupted" if interrupted else "day finished"} at '
              f'{_local_time(monitor.sun.sim_epoch_s, facade.utc_offset_h)} (local)',
              f'  simulated {sim_s / 3600:.2f} h in {wall_s:.1f} s wall: '
@@ -309,11 +309,8 @@ def run(options, args):
     finally:
         wall_s = time.monotonic() - started
         _stop_children(children)
-        children_cpu = resource.getrusage(resource.RUSAGE_CHILDREN)
         if monitor is not None:
-            print('\n'.join(summary_lines(monitor, plan, wall_s,
-                                          children_cpu.ru_utime + children_cpu.ru_stime,
-                                          interrupted)), flush=True)
+            print('\n'.join(summary_lines(monitor, plan, wall_s, interrupted)), flush=True)
         for node in nodes:
             node.destroy_node()
         rclpy.try_shutdown()

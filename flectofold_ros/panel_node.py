@@ -149,20 +149,17 @@ class PanelNode(Node):
         self.get_logger().debug(f'panel {self.panel_id} ready, row {index} of {len(loops)}')
 
     def _on_set_parameters(self, parameters):
-        for parameter in parameters:
-            try:
-                if parameter.name == 'setpoint_timeout_s':
-                    self.guard.timeout_s = parameter.value
-                elif parameter.name == 'safe_behaviour':
-                    self.guard.safe_behaviour = SafeBehaviour(parameter.value)
-                elif parameter.name == 'fault_action':
-                    SafeAction(parameter.value)
-            except ValueError as error:
-                return SetParametersResult(successful=False,
-                                           reason=f'{parameter.name}: {error}')
-        if any(p.name == 'fault_action' for p in parameters) and self.loops is not None:
-            action = next(p.value for p in parameters if p.name == 'fault_action')
-            self.loops.set_safe_action(SafeAction(action), [self.index])
+        # Check every change before applying any: a refused call must leave nothing half set.
+        changes = {p.name: p.value for p in parameters}
+        try:
+            behaviour = SafeBehaviour(changes.get('safe_behaviour', self.guard.safe_behaviour))
+            action = SafeAction(changes.get('fault_action', self._value('fault_action')))
+            self.guard.timeout_s = changes.get('setpoint_timeout_s', self.guard.timeout_s)
+        except ValueError as error:
+            return SetParametersResult(successful=False, reason=str(error))
+        self.guard.safe_behaviour = behaviour
+        if self.loops is not None:
+            self.loops.set_safe_action(action, [self.index])
         return SetParametersResult(successful=True)
 
     def _apply_fault_action(self):

@@ -172,3 +172,24 @@ def test_a_panel_needs_a_known_id(arguments, message):
     finally:
         graph.close()
     assert code == 2 and message in output, output
+
+
+def test_a_refused_runtime_change_leaves_every_parameter_as_it_was():
+    from rclpy.parameter import Parameter
+
+    from flectofold_ros.panel_node import PanelNode
+    graph = Graph(domain_for(4))
+    try:
+        node = PanelNode(PANEL, context=graph.context)
+        results = node.set_parameters_atomically([Parameter('setpoint_timeout_s', value=5.0),
+                                                  Parameter('safe_behaviour', value='explode')])
+        assert not results.successful and 'explode' in results.reason
+        assert node.guard.timeout_s == 10.0
+        assert node.get_parameter('setpoint_timeout_s').value == 10.0
+        assert node.set_parameters_atomically([Parameter('setpoint_timeout_s', value=5.0),
+                                               Parameter('safe_behaviour', value='hold')]
+                                              ).successful
+        assert node.guard.timeout_s == 5.0 and node.guard.safe_behaviour.value == 'hold'
+        node.destroy_node()
+    finally:
+        graph.close()
