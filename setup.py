@@ -36,6 +36,9 @@ setup(
             'sun_position_node = flectofold_ros.sun_position_node:main',
             'coordinator_node = flectofold_ros.coordinator_node:main',
             'facade = flectofold_ros.facade:main',
+            'rerun_bridge = flectofold_ros.rerun_bridge:main',
+            'bag_recorder = flectofold_ros.bag_recorder:main',
+            'replay = flectofold_ros.replay:main',
         ],
     },
 )

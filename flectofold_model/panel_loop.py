@@ -10,6 +10,7 @@ the time that actually passed. Feedback for each panel (measured pressure, closu
 fold angle from the static maps) is read from here.
 """
 
+from collections import deque
 import dataclasses
 from dataclasses import dataclass
 import math
@@ -31,6 +32,19 @@ class LoopAdvance:
     """Control periods run."""
     skipped_s: float
     """Clock time not simulated because the jump exceeded the catch-up limit [s]."""
+
+
+@dataclass(frozen=True)
+class LoopSample:
+    """Every panel's feedback at one instant of the loop's clock."""
+
+    sequence: int
+    """Counts up by one per sample, also across restarts."""
+    time_s: float
+    """Clock reading the state belongs to [s]."""
+    closure: np.ndarray
+    fold_angle_rad: np.ndarray
+    measured_pa: np.ndarray
 
 
 class PanelLoops:
@@ -85,6 +99,10 @@ class PanelLoops:
         self._rested_setpoint = None
         self.time_s = None
         self._fold_angle_table = _fold_angle_table(model, self.map.closures)
+        self.sample_period_s = None
+        self.samples = deque(maxlen=4096)
+        self._next_sample_s = -math.inf
+        self._sequence = 0
 
     def __len__(self):
         return self.setpoint.shape[0]
@@ -102,6 +120,7 @@ class PanelLoops:
         now_s = real_scalar('now_s', now_s)
         if self.time_s is None or now_s < self.time_s:
             self.time_s = now_s
+            self._next_sample_s = -math.inf
             return LoopAdvance(0, 0.0)
         if not self.driver.simulated:
             dt = now_s - self.time_s
@@ -109,11 +128,13 @@ class PanelLoops:
                 return LoopAdvance(0, 0.0)
             self._period(min(dt, 5.0 * self.period_s))
             self.time_s = now_s
+            self._sample(now_s)
             return LoopAdvance(1, 0.0)
         periods = math.floor((now_s - self.time_s) / self.period_s + 1e-9)
         limit = math.floor(self.max_catch_up_s / self.period_s)
         skipped = max(0, periods - limit) * self.period_s
         remaining, run = min(periods, limit), 0
+        clock_s = self.time_s
         while remaining:
             span = min(self.quiet_periods, remaining) if self._resting() else 1
             command = self._period(span * self.period_s)
@@ -123,8 +144,23 @@ class PanelLoops:
             self.driver.advance(span * self.period_s)
             remaining -= span
             run += 1
+            clock_s += span * self.period_s
+            self._sample(clock_s)
         self.time_s += periods * self.period_s
         return LoopAdvance(run, skipped)
+
+    def _sample(self, clock_s):
+        """Keep the feedback once per ``sample_period_s`` (when set) of the loop's clock.
+
+        A loop that catches up a long clock jump in one call thereby still leaves its
+        states at their own times, for nodes to publish with the right stamps.
+        """
+        if self.sample_period_s is None or clock_s < self._next_sample_s - 1e-9:
+            return
+        self._sequence += 1
+        self.samples.append(LoopSample(self._sequence, clock_s, self.closure,
+                                       self.fold_angle_rad, self.measured_pa.copy()))
+        self._next_sample_s = clock_s + self.sample_period_s
 
     def _resting(self):
         """Every panel at rest in its hold band (valves shut), setpoints unchanged."""

@@ -36,6 +36,7 @@ from flectofold_ros.sun_position_node import SunPositionNode
 CLOCK_RATE_HZ = 50.0
 CATCH_UP_WAIT_S = 60.0
 MAX_LAG_S = 300.0
+START_WAIT_S = 60.0
 
 
 @dataclass(frozen=True)
@@ -54,8 +55,16 @@ class DayPlan:
 
     @property
     def setpoint_timeout_s(self):
-        """Panel watchdog: 10 s, or 10 clock ticks when a tick is longer than 1 s."""
-        return max(10.0, 10.0 * self.clock_tick_s)
+        """Panel watchdog: 10 s, or at least twice MAX_LAG_S when a tick is longer than 1 s.
+
+        The watchdog counts ROS time from the last setpoint a panel took. A panel process busy
+        catching up its loops takes its queued setpoints only afterwards, by when the clock
+        may have run up to MAX_LAG_S (plus the monitor's reaction) ahead: a shorter watchdog
+        would vent panels for the simulation's own lag, not for a silent coordinator.
+        """
+        if self.clock_tick_s <= 1.0:
+            return 10.0
+        return max(10.0 * self.clock_tick_s, 2.0 * MAX_LAG_S)
 
     @property
     def publish_rate_hz(self):
@@ -91,6 +100,15 @@ def parse_arguments(argv):
                              '0: all in this process)')
     parser.add_argument('--progress-period', type=float, default=5.0,
                         help='wall seconds between progress lines')
+    parser.add_argument('--record', action='store_true',
+                        help='record a bag (MCAP) of /facade/**, /diagnostics and /clock')
+    parser.add_argument('--rerun', nargs='?', const='auto', default=None, metavar='VIEWER',
+                        help='stream the 3D facade to Rerun and save an .rrd; VIEWER: auto '
+                             '(spawn a viewer when a display is set; the default), spawn, '
+                             'none (file only) or a gRPC URL rerun+http://127.0.0.1:9876/proxy')
+    parser.add_argument('--out', default='out',
+                        help='directory for the bag and the .rrd (default out/); each run '
+                             'gets a folder, out/latest points to the newest')
     return parser.parse_args(argv)
 
 
@@ -134,6 +152,39 @@ def coordinator_parameters(plan):
             Parameter('setpoint_period_s', value=plan.setpoint_period_s)]
 
 
+def recorder_command(bag_path):
+    return [sys.executable, '-m', 'flectofold_ros.bag_recorder', '--ros-args',
+            '-p', 'use_sim_time:=true', '-p', f'output:={bag_path}']
+
+
+def bridge_command(plan, rrd_path, viewer):
+    command = [sys.executable, '-m', 'flectofold_ros.rerun_bridge', '--ros-args',
+               '-p', 'use_sim_time:=true', '-p', f'rrd_path:={rrd_path}',
+               '-p', f'viewer:={viewer}']
+    if plan.facade_file:
+        command += ['-p', f'facade_file:={plan.facade_file}']
+    return command
+
+
+def run_directory(out, plan):
+    """Create ``out/<day>_<start>-<end>_<wall time>/`` and point ``out/latest`` at it."""
+    start = datetime.datetime.fromisoformat(plan.start_iso)
+    end = datetime.datetime.fromisoformat(plan.end_iso)
+    name = (f'{start:%Y-%m-%d_%H%M}-{end:%H%M}_'
+            f'{datetime.datetime.now():%Y%m%d-%H%M%S}')
+    directory = os.path.join(out, name)
+    try:
+        os.makedirs(directory)
+        latest = os.path.join(out, 'latest')
+        if os.path.islink(latest):
+            os.remove(latest)
+        if not os.path.exists(latest):
+            os.symlink(name, latest)
+    except OSError as error:
+        raise ValueError(f'--out {out}: cannot create {directory}: {error.strerror}') from None
+    return directory
+
+
 def panel_group_command(plan, group, groups):
     """Return the command line of one child process hosting a slice of the panels."""
     command = [sys.executable, '-m', 'flectofold_ros.panel_group', '--group', f'{group}/{groups}']
@@ -156,6 +207,8 @@ class Monitor(Node):
         self.started = time.monotonic()
         self.finished_at = None
         self.holds, self.held_s, self.held_since = 0, 0.0, None
+        self.starting = True
+        self.observers = 0
         self.create_subscription(DiagnosticArray, '/diagnostics', self._on_diagnostics, 100)
         steady = Clock(clock_type=ClockType.STEADY_TIME)
         self.create_timer(progress_period_s, self.print_progress, clock=steady)
@@ -181,7 +234,25 @@ class Monitor(Node):
             self.held_s += time.monotonic() - self.held_since
         self.sun.paused = lagging
 
+    def ready(self):
+        """Every panel publishes; the coordinator and every observer (bridge, recorder) listen.
+
+        Until then the bringup holds the clock at the start of the day, so nothing misses it.
+        """
+        if self.count_subscribers('/facade/sun') < 1 + self.observers:
+            return False
+        return all(self.count_publishers(f'/facade/{panel_id}/closure') >= 1
+                   and self.count_subscribers(f'/facade/{panel_id}/closure') >= self.observers
+                   for panel_id in self.facade.panel_ids)
+
+    def start_day(self):
+        self.starting = False
+        self.sun.paused = False
+        self.started = time.monotonic()
+
     def _check_finished(self):
+        if self.starting:
+            return
         self._hold_clock_for_laggards()
         if self.sun.finished and self.finished_at is None:
             self.finished_at = time.monotonic()
@@ -200,6 +271,16 @@ class Monitor(Node):
         return [float(values[key]) for values in self.panels.values() if key in values]
 
     def print_progress(self):
+        if self.starting:
+            up = sum(self.count_publishers(f'/facade/{p}/closure') >= 1
+                     for p in self.facade.panel_ids)
+            heard = min(self.count_subscribers(f'/facade/{p}/closure')
+                        for p in self.facade.panel_ids)
+            print(f'[{time.monotonic() - self.started:6.1f} s] starting: panels up {up}/'
+                  f'{len(self.facade)}, observers subscribed {heard}/{self.observers}, '
+                  f'sun listeners {self.count_subscribers("/facade/sun")}/'
+                  f'{1 + self.observers}', flush=True)
+            return
         local = _local_time(self.sun.sim_epoch_s, self.facade.utc_offset_h)
         closures = self.numbers('closure')
         commanded = self.coordinator.commanded
@@ -257,11 +338,11 @@ def summary_lines(monitor, plan, wall_s, interrupted):
     return lines
 
 
-def _stop_children(children):
+def _stop_children(children, timeout_s=10.0):
     for child in children:
         if child.poll() is None:
             child.send_signal(signal.SIGINT)
-    deadline = time.monotonic() + 10.0
+    deadline = time.monotonic() + timeout_s
     for child in children:
         try:
             child.wait(timeout=max(0.1, deadline - time.monotonic()))
@@ -270,20 +351,48 @@ def _stop_children(children):
             child.wait()
 
 
+def _exited(processes):
+    return any(process.poll() is not None for process in processes)
+
+
+def output_lines(outputs):
+    """Where the run's bag and .rrd are, with their sizes."""
+    lines = []
+    for name, what in (('bag', 'bag (rosbag2, MCAP)'), ('facade.rrd', 'Rerun recording')):
+        path = os.path.join(outputs, name)
+        if os.path.exists(path):
+            files = [os.path.join(root, f) for root, _, names in os.walk(path) for f in names] \
+                if os.path.isdir(path) else [path]
+            size = sum(os.path.getsize(f) for f in files)
+            lines.append(f'  {what}: {path} ({size / 1e6:.1f} MB)')
+    if lines:
+        latest = os.path.join(os.path.dirname(outputs), 'latest')
+        lines.insert(0, f'outputs (also under {latest}):')
+    return lines
+
+
 def run(options, args):
     facade = load_facade(options.facade or DEFAULT_FACADE)
     plan = build_plan(options, facade)
     rclpy.init(args=args)
+    outputs = run_directory(options.out, plan) if options.record or options.rerun else None
     executor = make_executor()
-    nodes, children = [], []
+    nodes, children, observers = [], [], []
     interrupted = True
     started = time.monotonic()
     monitor = None
     try:
         coordinator = CoordinatorNode(parameter_overrides=coordinator_parameters(plan))
         nodes.append(coordinator)
+        env = dict(os.environ, PYTHONUNBUFFERED='1')
+        if options.record:
+            observers.append(subprocess.Popen(
+                recorder_command(os.path.join(outputs, 'bag')), env=env))
+        if options.rerun:
+            observers.append(subprocess.Popen(
+                bridge_command(plan, os.path.join(outputs, 'facade.rrd'), options.rerun),
+                env=env))
         if options.panel_processes:
-            env = dict(os.environ, PYTHONUNBUFFERED='1')
             children = [subprocess.Popen(panel_group_command(plan, k, options.panel_processes),
                                          env=env)
                         for k in range(options.panel_processes)]
@@ -291,7 +400,9 @@ def run(options, args):
             nodes += start_panels(facade.panel_ids, executor,
                                   parameter_overrides=panel_parameters(plan))
         sun = SunPositionNode(parameter_overrides=sun_parameters(plan, facade))
+        sun.paused = True
         monitor = Monitor(sun, coordinator, facade, options.progress_period)
+        monitor.observers = len(observers)
         nodes += [sun, monitor]
         for node in (coordinator, sun, monitor):
             executor.add_node(node)
@@ -299,18 +410,30 @@ def run(options, args):
               f'({"in this process" if not children else f"in {len(children)} processes"}), '
               f'{plan.start_iso} .. {plan.end_iso} at {plan.speedup:g}x; Ctrl-C stops',
               flush=True)
+        waited = time.monotonic()
+        spin_until(executor, lambda: monitor.ready() or
+                   time.monotonic() - waited > START_WAIT_S or _exited(children + observers))
+        if not monitor.ready():
+            print(f'facade: not every panel and observer was up after '
+                  f'{time.monotonic() - waited:.0f} s; starting the day anyway', flush=True)
+        monitor.start_day()
         spin_until(executor, lambda: monitor.done)
         interrupted = not monitor.done
+        if observers:
+            spin_until(executor, lambda: time.monotonic() - monitor.finished_at > 2.0)
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
     except Exception:
         if rclpy.ok():
             raise  # a real error; after a signal's shutdown, callbacks fail on a dead context
     finally:
-        wall_s = time.monotonic() - started
+        wall_s = time.monotonic() - (monitor.started if monitor is not None else started)
         _stop_children(children)
+        _stop_children(observers, timeout_s=120.0)
         if monitor is not None:
             print('\n'.join(summary_lines(monitor, plan, wall_s, interrupted)), flush=True)
+        if outputs is not None:
+            print('\n'.join(output_lines(outputs)), flush=True)
         for node in nodes:
             node.destroy_node()
         rclpy.try_shutdown()

@@ -18,6 +18,7 @@ from rclpy.exceptions import ParameterException
 from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile
+from rclpy.time import Time
 from sensor_msgs.msg import FluidPressure, JointState
 from std_msgs.msg import Float64, String
 from std_srvs.srv import Trigger
@@ -139,6 +140,8 @@ class PanelNode(Node):
         self._joint_names = [f'{self.panel_id}_flap_left', f'{self.panel_id}_flap_right']
         self._publish_period_s = 1.0 / self._value('publish_rate_hz')
         self._next_publish_s = -math.inf
+        self._last_sequence, self._last_sample_s = 0, -math.inf
+        loops.sample_period_s = min(loops.sample_period_s or math.inf, self._publish_period_s)
         self._published = {'fault': None, 'status': None}
         self._rejected_since_report = 0
         self._skipped_s = 0.0
@@ -191,26 +194,37 @@ class PanelNode(Node):
             self.get_logger().warning(f'the clock jumped: {advance.skipped_s:.0f} s were not '
                                       f'simulated (the plant held)')
         self._publish_latched(state)
-        # Half a control period of slack: timer jitter must not stretch the publish period.
-        if now >= self._next_publish_s - 0.5 * self.loops.period_s:
-            self._next_publish_s += self._publish_period_s
-            if self._next_publish_s <= now:
-                self._next_publish_s = now + self._publish_period_s
-            self._publish_state()
+        self._publish_samples()
 
-    def _publish_state(self):
-        stamp = self.get_clock().now().to_msg()
+    def _publish_samples(self):
+        # The shared loop keeps its state at each publish instant, also while it catches up
+        # a clock jump in one call: publish those, each with its own stamp.
+        for sample in self.loops.samples:
+            if sample.sequence <= self._last_sequence:
+                continue
+            if sample.time_s < self._last_sample_s:
+                self._next_publish_s = -math.inf  # the loop restarted (the clock went back)
+            self._last_sequence, self._last_sample_s = sample.sequence, sample.time_s
+            # Half a control period of slack: timer jitter must not stretch the period.
+            if sample.time_s >= self._next_publish_s - 0.5 * self.loops.period_s:
+                self._next_publish_s += self._publish_period_s
+                if self._next_publish_s <= sample.time_s:
+                    self._next_publish_s = sample.time_s + self._publish_period_s
+                self._publish_state(sample)
+
+    def _publish_state(self, sample):
+        stamp = Time(nanoseconds=round(sample.time_s * 1e9)).to_msg()
         i = self.index
-        measured = float(self.loops.measured_pa[i])
+        measured = float(sample.measured_pa[i])
         if math.isfinite(measured):
             pressure = FluidPressure(fluid_pressure=measured, variance=self._noise_variance)
             pressure.header.stamp, pressure.header.frame_id = stamp, self.panel_id
             self._pressure.publish(pressure)
-        angle = float(self.loops.fold_angle_rad[i])
+        angle = float(sample.fold_angle_rad[i])
         joints = JointState(name=self._joint_names, position=[angle, angle])
         joints.header.stamp = stamp
         self._joints.publish(joints)
-        self._closure.publish(Float64(data=float(self.loops.closure[i])))
+        self._closure.publish(Float64(data=float(sample.closure[i])))
 
     def _publish_latched(self, state):
         fault = self.loops.fault[self.index]

@@ -20,3 +20,16 @@ def declare_all(node, parameters):
     """Declare ``{name: (default, descriptor)}`` on ``node``."""
     for name, (default, descriptor) in parameters.items():
         node.declare_parameter(name, default, descriptor)
+
+
+def boolean(description, read_only=True):
+    """Describe a bool parameter."""
+    return ParameterDescriptor(type=ParameterType.PARAMETER_BOOL, description=description,
+                               read_only=read_only)
+
+
+def strings(description, read_only=True, constraints=''):
+    """Describe a string-array parameter."""
+    return ParameterDescriptor(type=ParameterType.PARAMETER_STRING_ARRAY,
+                               description=description, read_only=read_only,
+                               additional_constraints=constraints)

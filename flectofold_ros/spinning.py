@@ -21,7 +21,13 @@ def make_executor():
 def spin_until(executor, done=lambda: False, context=None):
     """Handle events until ``done()`` or the context shuts down (a signal, say)."""
     while rclpy.ok(context=context) and not done():
-        executor.spin_once(timeout_sec=0.1)
+        try:
+            executor.spin_once(timeout_sec=0.1)
+        except RuntimeError:
+            # A signal that shuts the context down mid-call can surface as a pybind error.
+            if rclpy.ok(context=context):
+                raise
+            return
 
 
 def print_usage_if_asked(args, usage, parameters):

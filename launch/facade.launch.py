@@ -1,7 +1,8 @@
 """Launch a whole facade through a simulated day, one process per node group.
 
 ``ros2 launch flectofold_ros facade.launch.py [facade_file:=PATH] [date:=2026-06-21]
-[start:=12:00] [end:=15:00] [speedup:=360.0] [panel_processes:=2]``
+[start:=12:00] [end:=15:00] [speedup:=360.0] [panel_processes:=2] [record_bag:=DIR]
+[rerun_viewer:=auto|spawn|none|URL] [rrd_path:=day.rrd]``
 
 The launch-time counterpart of ``ros2 run flectofold_ros facade --panel-processes N``: the
 same :class:`flectofold_ros.facade.DayPlan` and the same node parameters, but every node in
@@ -36,6 +37,11 @@ ARGUMENTS = {
     'speedup': ('360.0', 'Simulated seconds per wall second, in [1, 10000]'),
     'panel_processes': ('2', 'Number of panel_group processes the panels are split over, '
                              'from 1 to the number of panels'),
+    'record_bag': ('', 'Record /facade/**, /diagnostics and /clock to this bag directory '
+                       '(bag_recorder); empty: no recording'),
+    'rerun_viewer': ('', 'Start a rerun_bridge: auto, spawn, none (file only) or a gRPC URL; '
+                         'empty: no bridge'),
+    'rrd_path': ('', 'The bridge also saves this .rrd (see rerun_bridge.md)'),
 }
 
 
@@ -108,6 +114,25 @@ def launch_setup(context, *args, **kwargs):
                      arguments=_panel_group_arguments(plan, group, groups),
                      parameters=[dict(panel)])
                 for group in range(groups)]
+    return actions + _observers(context, facade_file)
+
+
+def _observers(context, facade_file):
+    """The recorder and the bridge, when asked for; both on the simulated clock."""
+    actions = []
+    bag = _configuration(context, 'record_bag').strip()
+    if bag:
+        actions.append(Node(package=PACKAGE, executable='bag_recorder', output='screen',
+                            parameters=[{'use_sim_time': True,
+                                         'output': os.path.abspath(os.path.expanduser(bag))}]))
+    viewer = _configuration(context, 'rerun_viewer').strip()
+    if viewer:
+        rrd_path = _configuration(context, 'rrd_path').strip()
+        parameters = {'use_sim_time': True, 'viewer': viewer, 'facade_file': facade_file,
+                      'rrd_path': os.path.abspath(os.path.expanduser(rrd_path)) if rrd_path
+                      else ''}
+        actions.append(Node(package=PACKAGE, executable='rerun_bridge', namespace='/facade',
+                            output='screen', parameters=[parameters]))
     return actions
 
 

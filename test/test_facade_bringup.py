@@ -6,6 +6,8 @@ import time
 
 import pytest
 from ros_graph import domain_for, Graph
+from rosbags.rosbag2 import Reader
+from rrd_reading import Rrd
 
 CONTROL = 'period_s: 60.0, shading_target: 0.9, min_dwell_s: 300.0, default_closure: 1.0'
 
@@ -42,11 +44,12 @@ def test_a_short_day_runs_to_the_summary_and_leaves_nothing_running(small_facade
     assert not children_of(small_facade_file)
 
 
-def test_ctrl_c_stops_everything_and_still_summarises(small_facade_file):
+def test_ctrl_c_stops_everything_and_still_summarises(small_facade_file, tmp_path):
     graph = Graph(domain_for(6))
     try:
         bringup = graph.start('facade', '--facade', str(small_facade_file), '--speedup', '60',
-                              '--panel-processes', '1', '--progress-period', '1')
+                              '--panel-processes', '1', '--progress-period', '1',
+                              '--record', '--rerun', 'none', '--out', str(tmp_path / 'out'))
         started = time.monotonic()
         lines = []
         for line in bringup.stdout:
@@ -62,12 +65,17 @@ def test_ctrl_c_stops_everything_and_still_summarises(small_facade_file):
     assert 'small: interrupted at' in output
     assert 'Traceback' not in output
     assert not children_of(small_facade_file)
+    run = (tmp_path / 'out' / 'latest').resolve()  # the outputs of the part that ran are valid
+    with Reader(run / 'bag') as reader:
+        assert reader.message_count > 0
+    assert any(e.endswith('/mesh') for e in Rrd(run / 'facade.rrd').entities())
 
 
 @pytest.mark.parametrize('arguments, message', [
     (['--speedup', '0'], '--speedup'), (['--end', '03:00'], '--end'),
     (['--date', '2026-13-01'], '--date'), (['--panel-processes', '9'], '--panel-processes'),
-    (['--facade', '/nonexistent/facade.yaml'], 'cannot read')])
+    (['--facade', '/nonexistent/facade.yaml'], 'cannot read'),
+    (['--record', '--out', '/proc/flectofold'], 'cannot create')])
 def test_bad_options_are_refused_with_a_reason(small_facade_file, arguments, message):
     graph = Graph(domain_for(7))
     try:

@@ -207,7 +207,8 @@ def test_launch_file_is_installed_by_setup_glob():
 def test_declares_the_bringup_defaults(launch_module):
     defaults = _defaults(launch_module.generate_launch_description())
     assert defaults == {'facade_file': '', 'date': '2026-06-21', 'start': '12:00',
-                        'end': '15:00', 'speedup': '360.0', 'panel_processes': '2'}
+                        'end': '15:00', 'speedup': '360.0', 'panel_processes': '2',
+                        'record_bag': '', 'rerun_viewer': '', 'rrd_path': ''}
 
 
 def test_defaults_launch_the_embedded_demonstrator(launch_module):
@@ -243,3 +244,14 @@ def test_panel_processes_outside_the_panel_count_raises(launch_module, small_fac
 def test_bad_day_arguments_name_the_launch_argument(launch_module, overrides, message):
     with pytest.raises(ValueError, match=message):
         _nodes(launch_module, **overrides)
+
+
+def test_the_recorder_and_the_bridge_on_request(launch_module, tmp_path):
+    nodes = _nodes(launch_module, record_bag=str(tmp_path / 'bag'), rerun_viewer='none',
+                   rrd_path=str(tmp_path / 'day.rrd'))
+    (recorder,) = _by_executable(nodes, 'bag_recorder')
+    assert _parameters(recorder) == {'use_sim_time': True, 'output': str(tmp_path / 'bag')}
+    (bridge,) = _by_executable(nodes, 'rerun_bridge')
+    assert _parameters(bridge) == {'use_sim_time': True, 'viewer': 'none', 'facade_file': '',
+                                   'rrd_path': str(tmp_path / 'day.rrd')}
+    assert len(_nodes(launch_module)) == 4  # neither by default

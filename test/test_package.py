@@ -11,7 +11,7 @@ import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 EXECUTABLES = ['fold_table', 'day_report', 'panel_node', 'panel_group', 'sun_position_node',
-               'coordinator_node', 'facade']
+               'coordinator_node', 'facade', 'rerun_bridge', 'bag_recorder', 'replay']
 IGNORED_IN_COPY = shutil.ignore_patterns('.venv', '.git', 'build', 'install', 'log', 'out',
                                          '__pycache__', '*.egg-info', '.pytest_cache')
 

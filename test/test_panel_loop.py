@@ -153,3 +153,29 @@ def test_bad_construction_is_refused(facade):
         facade_loops(facade, ['r00c00', 'r00c00'])
     with pytest.raises(ValueError, match='fill_opening'):
         one.write_valves(np.array([1.5]), np.array([0.0]))
+
+
+def test_a_catch_up_keeps_a_state_per_sample_period_at_its_own_time(facade):
+    sampled, ticked = loops_of(facade), loops_of(facade)
+    sampled.sample_period_s = 5.0
+    for loops in (sampled, ticked):
+        loops.advance_to(0.0)
+        loops.setpoint[:] = 0.6
+    sampled.advance_to(30.0)  # one call: a loop that fell behind the clock
+    samples = list(sampled.samples)
+    assert [s.sequence for s in samples] == list(range(1, len(samples) + 1))
+    times = np.array([s.time_s for s in samples])
+    assert times[0] == pytest.approx(0.1) and np.all(np.diff(times) >= 5.0 - 1e-9)
+    assert np.all(np.diff(times) < 5.0 + 0.1 + 1e-9) and times[-1] > 25.0
+    for sample in samples:  # each is the state the loop had at that time
+        ticked.advance_to(sample.time_s)
+        np.testing.assert_array_equal(sample.closure, ticked.closure)
+        np.testing.assert_array_equal(sample.measured_pa, ticked.measured_pa)
+        np.testing.assert_array_equal(sample.fold_angle_rad, ticked.fold_angle_rad)
+
+
+def test_no_samples_unless_asked(facade):
+    loops = loops_of(facade)
+    loops.advance_to(0.0)
+    loops.advance_to(10.0)
+    assert not loops.samples

@@ -1,0 +1,140 @@
+"""Play a recorded bag back onto the graph, or turn it into a Rerun ``.rrd``.
+
+``ros2 run flectofold_ros replay BAG [--rate 2] [--loop] [--topics /clock /facade/sun ...]``
+publishes the bag's messages, serialized bytes as recorded, at their recorded spacing divided
+by ``--rate``; the bag's ``/clock`` goes out with them, so nodes on ``use_sim_time`` (a
+``rerun_bridge``, say) follow the recorded day. ``replay BAG --to-rrd day.rrd`` converts the
+bag offline instead: no graph, no rclpy. Contract: ``msg_docs/replay.md``.
+"""
+
+import argparse
+import math
+import sys
+import time
+
+from flectofold_ros.bag_segments import bag_topics, BagError, read_messages, topic_list
+
+DEFAULT_FLUSH_PERIOD_S = 1.0
+
+
+def parse_arguments(argv):
+    parser = argparse.ArgumentParser(prog='replay', description=__doc__.split('\n')[0])
+    parser.add_argument('bag', help='bag directory (rosbag2, as bag_recorder writes it)')
+    parser.add_argument('--rate', type=float, default=1.0,
+                        help='playback speed factor (default 1: as recorded)')
+    parser.add_argument('--loop', action='store_true', help='play again from the start, '
+                        'until Ctrl-C')
+    parser.add_argument('--topics', nargs='+', metavar='TOPIC',
+                        help='play only these topics (default: all)')
+    parser.add_argument('--to-rrd', metavar='OUT.rrd',
+                        help='convert the bag to a Rerun recording instead of playing it')
+    parser.add_argument('--facade', default='', help='facade YAML for --to-rrd (default: '
+                        'the embedded demonstrator)')
+    parser.add_argument('--color-by', default='closure', choices=('closure', 'pressure'),
+                        help='panel colour for --to-rrd')
+    parser.add_argument('--flush-period', type=float, default=DEFAULT_FLUSH_PERIOD_S,
+                        help='--to-rrd: bag seconds between logging what changed (default 1)')
+    options = parser.parse_args(argv)
+    if not (math.isfinite(options.rate) and 0.001 <= options.rate <= 10000.0):
+        parser.error(f'--rate must lie in [0.001, 10000], got {options.rate:g}')
+    if not (math.isfinite(options.flush_period) and options.flush_period > 0.0):
+        parser.error(f'--flush-period must be a positive number, got {options.flush_period:g}')
+    return options
+
+
+def to_rrd(options):
+    """Convert the bag; print what was written."""
+    from flectofold_model.facade import DEFAULT_FACADE, load_facade
+    from flectofold_ros.bag_to_rrd import convert
+    facade = load_facade(options.facade or DEFAULT_FACADE)
+    started = time.monotonic()
+    counts = convert(options.bag, options.to_rrd, facade, options.color_by,
+                     options.flush_period, topics=options.topics)
+    print(f'replay: {options.to_rrd}: {counts.meshes_logged} meshes, {counts.samples_logged} '
+          f'samples, {counts.events_logged} events, {counts.rejected} rejected, in '
+          f'{time.monotonic() - started:.1f} s', flush=True)
+    return 0
+
+
+def play(options, args):
+    """Publish the bag's messages with their recorded spacing; return the exit code."""
+    import rclpy
+    from rclpy.duration import Duration
+    from rclpy.executors import ExternalShutdownException
+    from rclpy.qos import DurabilityPolicy, QoSProfile
+
+    from flectofold_ros.message_types import message_class
+
+    topics = bag_topics(options.bag)
+    selected = options.topics or sorted(topics)
+    unknown = sorted(set(selected) - set(topics))
+    if unknown:
+        raise BagError(f'bag {options.bag} has no topic {", ".join(unknown)}; it has '
+                       f'{topic_list(topics)}')
+    rclpy.init(args=args)
+    node = rclpy.create_node('replay')
+    published, loops = 0, 0
+    try:
+        publishers = {}
+        for topic in selected:
+            msgtype, latched = topics[topic]
+            qos = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL) \
+                if latched else QoSProfile(depth=100)
+            publishers[topic] = node.create_publisher(message_class(msgtype), topic, qos)
+        time.sleep(0.5)  # let subscribers match the new publishers
+        while rclpy.ok():
+            published += _play_once(options, selected, publishers, rclpy.ok)
+            loops += 1
+            if not options.loop:
+                break
+        for publisher in publishers.values():  # let reliable subscribers take the last ones
+            publisher.wait_for_all_acked(Duration(seconds=2.0))
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    finally:
+        node.destroy_node()
+        rclpy.try_shutdown()
+    print(f'replay: {published} messages published, {loops} pass(es) of {options.bag}',
+          flush=True)
+    return 0
+
+
+def _play_once(options, topics, publishers, ok):
+    started, first_ns, count = time.monotonic(), None, 0
+    for topic, _, t_ns, raw in read_messages(options.bag, topics):
+        if first_ns is None:
+            first_ns = t_ns
+        due = started + (t_ns - first_ns) * 1e-9 / options.rate
+        while ok() and time.monotonic() < due:
+            time.sleep(min(0.05, max(0.0, due - time.monotonic())))
+        if not ok():
+            break
+        publishers[topic].publish(raw)
+        count += 1
+    return count
+
+
+def without_ros_args(argv):
+    """``argv`` without ``--ros-args ... [--]`` blocks (rclpy is not needed for --to-rrd)."""
+    kept, inside = [], False
+    for argument in argv:
+        if argument == '--ros-args':
+            inside = True
+        elif inside and argument == '--':
+            inside = False
+        elif not inside:
+            kept.append(argument)
+    return kept
+
+
+def main(args=None):
+    options = parse_arguments(without_ros_args(sys.argv if args is None else args)[1:])
+    try:
+        return to_rrd(options) if options.to_rrd else play(options, args)
+    except (BagError, ValueError) as error:
+        print(f'replay: {error}', file=sys.stderr)
+        return 2
+
+
+if __name__ == '__main__':
+    sys.exit(main())

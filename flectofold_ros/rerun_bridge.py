@@ -1,0 +1,179 @@
+"""Stream the facade's 3D state to Rerun: every panel's folded mesh, the sun, plots and faults.
+
+``ros2 run flectofold_ros rerun_bridge [--ros-args -p use_sim_time:=true -p rrd_path:=day.rrd]``.
+The node subscribes to every panel's state and the sun, and hands them to
+:class:`flectofold_ros.rerun_scene.FacadeScene`, which rebuilds the meshes with
+``flectofold_model`` and logs them on the ROS time. Sinks: a viewer (one it spawns, bound to
+127.0.0.1, or one at a gRPC address) and/or an ``.rrd`` file. Topics, parameters and the
+entity layout: ``msg_docs/rerun_bridge.md``.
+"""
+
+from datetime import datetime
+import sys
+import time
+
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+from geometry_msgs.msg import Vector3Stamped
+import rclpy
+from rclpy.clock import Clock, ClockType
+from rclpy.exceptions import ParameterException
+from rclpy.executors import ExternalShutdownException
+from rclpy.node import Node
+from rclpy.qos import DurabilityPolicy, QoSProfile
+from sensor_msgs.msg import FluidPressure, JointState
+from std_msgs.msg import Float64, String
+
+from flectofold_model.facade import DEFAULT_FACADE, FacadeError, load_facade
+from flectofold_ros.parameters import boolean, declare_all, double, string
+from flectofold_ros.rerun_scene import COLOR_MODES, FacadeScene, feed, scene_topics
+from flectofold_ros.rerun_sinks import BridgeError, choose_sinks, open_recording, spawn_viewer
+from flectofold_ros.spinning import make_executor, print_usage_if_asked, spin_until
+
+_TYPES = {'sensor_msgs/msg/JointState': JointState, 'sensor_msgs/msg/FluidPressure': FluidPressure,
+          'std_msgs/msg/Float64': Float64, 'std_msgs/msg/String': String,
+          'geometry_msgs/msg/Vector3Stamped': Vector3Stamped}
+LATCHED = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL)
+
+PARAMETERS = {
+    'facade_file': ('', string('Facade description YAML; empty: the embedded demonstrator')),
+    'color_by': ('closure', string('Panel colour: closure or gauge pressure',
+                                   constraints=f'one of: {", ".join(COLOR_MODES)}')),
+    'viewer': ('auto', string(
+        'Live viewer: auto (spawn one when a display is set), spawn, none, or a gRPC URL '
+        'such as rerun+http://127.0.0.1:9876/proxy')),
+    'viewer_port': (9876.0, double('Port of a spawned viewer (bound to 127.0.0.1)',
+                                   1024.0, 65535.0)),
+    'rrd_path': ('', string('Also save the recording to this .rrd; empty: save '
+                            'flectofold_<time>.rrd in the working directory when no viewer '
+                            'is used')),
+    'flush_period_s': (0.2, double('Wall time between logging what changed [s]', 0.01, 10.0)),
+    'min_change_rad': (1e-3, double(
+        'A panel is re-meshed when its fold angle moved more than this [rad]', 0.0, 0.0999)),
+    'strict': (False, boolean('Rerun strict mode: logging errors raise instead of warning')),
+    'diagnostics_period_s': (1.0, double('Period of /diagnostics, wall clock [s]', 0.1, 60.0)),
+}
+
+
+class RerunBridge(Node):
+    """Node ``rerun_bridge`` in namespace ``/facade``."""
+
+    def __init__(self, **kwargs):
+        kwargs.setdefault('namespace', '/facade')
+        super().__init__('rerun_bridge', **kwargs)
+        declare_all(self, PARAMETERS)
+        value = self._value
+        if value('color_by') not in COLOR_MODES:
+            raise BridgeError(f'color_by must be one of {", ".join(COLOR_MODES)}, '
+                              f'got {value("color_by")!r}')
+        facade = load_facade(value('facade_file') or DEFAULT_FACADE)
+        url, self.rrd_path, spawn = choose_sinks(value('viewer'), value('rrd_path'),
+                                                 int(value('viewer_port')))
+        if spawn:
+            url = spawn_viewer(int(value('viewer_port')))
+        self.viewer_url = url
+        recording_id = f'{facade.name}-{datetime.now().isoformat(timespec="seconds")}'
+        self.recording = open_recording(recording_id, url, self.rrd_path, value('strict'))
+        self.scene = FacadeScene(facade, self.recording, value('color_by'),
+                                 value('min_change_rad'))
+        self.scene.log_static()
+        for topic, msgtype, latched in scene_topics(facade):
+            self.create_subscription(_TYPES[msgtype], topic, self._callback(topic),
+                                     LATCHED if latched else 10)
+        steady = Clock(clock_type=ClockType.STEADY_TIME)
+        self.create_timer(value('flush_period_s'), self.flush, clock=steady)
+        self._diagnostics = self.create_publisher(DiagnosticArray, '/diagnostics', 10)
+        self.create_timer(value('diagnostics_period_s'), self._report, clock=steady)
+        self.started = time.monotonic()
+        self.lag_s = []
+        self.flush_wall_s = 0.0
+
+    def _value(self, name):
+        return self.get_parameter(name).value
+
+    def _callback(self, topic):
+        def on_message(message):
+            feed(self.scene, topic, message, self.get_clock().now().nanoseconds)
+        return on_message
+
+    def flush(self):
+        """Log what changed; note how far the logged state trails the ROS clock."""
+        started = time.perf_counter()
+        meshes = self.scene.flush()
+        self.flush_wall_s += time.perf_counter() - started
+        now_ns = self.get_clock().now().nanoseconds
+        if meshes and self.scene.newest_stamp_ns > 0:
+            self.lag_s.append(max(0.0, (now_ns - self.scene.newest_stamp_ns) * 1e-9))
+
+    def figures(self):
+        """Return counts, meshes per second (wall) and lag of the logged state [s]."""
+        wall_s = max(time.monotonic() - self.started, 1e-9)
+        counts = self.scene.counts
+        lag = sorted(self.lag_s)
+        return {'meshes_logged': counts.meshes_logged,
+                'meshes_unchanged': counts.meshes_unchanged,
+                'meshes_per_s': counts.meshes_logged / wall_s,
+                'samples_logged': counts.samples_logged, 'rejected': counts.rejected,
+                'lag_median_s': lag[len(lag) // 2] if lag else 0.0,
+                'lag_max_s': lag[-1] if lag else 0.0,
+                'lag_last_s': self.lag_s[-1] if self.lag_s else 0.0,
+                'flush_cpu_share': self.flush_wall_s / wall_s}
+
+    def _report(self):
+        figures = self.figures()
+        array = DiagnosticArray()
+        array.header.stamp = self.get_clock().now().to_msg()
+        array.status.append(DiagnosticStatus(
+            level=DiagnosticStatus.OK, name=f'{self.get_fully_qualified_name()}: rerun',
+            hardware_id='rerun_bridge', message=f'{figures["meshes_logged"]} meshes logged',
+            values=[KeyValue(key=k, value=f'{v:.6g}' if isinstance(v, float) else str(v))
+                    for k, v in figures.items()]))
+        self._diagnostics.publish(array)
+
+    def summary(self):
+        """One line for the end of a run."""
+        f = self.figures()
+        where = [str(self.rrd_path)] if self.rrd_path else []
+        where += [self.viewer_url] if self.viewer_url else []
+        return (f'rerun_bridge: {f["meshes_logged"]} meshes ({f["meshes_per_s"]:.1f}/s, '
+                f'{f["meshes_unchanged"]} unchanged skipped), {f["samples_logged"]} samples; '
+                f'lag behind the clock median {f["lag_median_s"]:.1f} s, max '
+                f'{f["lag_max_s"]:.1f} s; flush {100 * f["flush_cpu_share"]:.1f} % of wall; '
+                f'to {", ".join(where)}')
+
+    def close(self):
+        """Log the last changes and finish the file (its footer)."""
+        self.flush()
+        self.recording.flush()
+        self.recording.disconnect()
+
+
+def main(args=None):
+    if print_usage_if_asked(args, 'rerun_bridge [--ros-args -p name:=value ...]', PARAMETERS):
+        return 0
+    rclpy.init(args=args)
+    executor = make_executor()
+    bridge = None
+    try:
+        bridge = RerunBridge()
+        executor.add_node(bridge)
+        bridge.get_logger().info(
+            f'logging {len(bridge.scene.facade)} panels to '
+            f'{bridge.rrd_path or ""}{" and " if bridge.rrd_path and bridge.viewer_url else ""}'
+            f'{bridge.viewer_url or ""}')
+        spin_until(executor)
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    except (BridgeError, FacadeError, ParameterException) as error:
+        print(f'rerun_bridge: {error}', file=sys.stderr)
+        return 2
+    finally:
+        if bridge is not None:
+            bridge.close()
+            print(bridge.summary(), flush=True)
+            bridge.destroy_node()
+        rclpy.try_shutdown()
+    return 0
+
+
+if __name__ == '__main__':
+    sys.exit(main())
