@@ -61,17 +61,25 @@ class SceneCounts:
 
 
 def facade_blueprint():
-    """Return the default layout: the 3D facade left; plots and the status log right."""
+    """Return the default layout: the 3D facade left; plots and the status log right.
+
+    The plots show the whole recording (a day is the scale a facade is judged on); the
+    time cursor marks the moment the 3D view shows.
+    """
+    whole = rrb.TimeAxis(view_range=rrb.TimeRange(start=rrb.TimeRangeBoundary.infinite(),
+                                                  end=rrb.TimeRangeBoundary.infinite()))
     return rrb.Blueprint(
         rrb.Horizontal(
             rrb.Spatial3DView(origin='/', contents=['/facade/**', '/sun/**'], name='Facade 3D'),
             rrb.Vertical(
                 rrb.Tabs(
                     rrb.TimeSeriesView(origin='/metrics/pressure_gauge_pa',
-                                       name='Cushion pressure [Pa gauge]'),
-                    rrb.TimeSeriesView(origin='/metrics/closure', name='Closure [-]'),
+                                       name='Cushion pressure [Pa gauge]', axis_x=whole),
+                    rrb.TimeSeriesView(origin='/metrics/closure', name='Closure [-]',
+                                       axis_x=whole),
                 ),
-                rrb.TimeSeriesView(origin='/metrics/fold_angle_rad', name='Fold angle [rad]'),
+                rrb.TimeSeriesView(origin='/metrics/fold_angle_rad', name='Fold angle [rad]',
+                                   axis_x=whole),
                 rrb.TextLogView(origin='/facade/events', name='Faults and status'),
                 row_shares=[2, 2, 1]),
             column_shares=[3, 2]),
@@ -248,9 +256,10 @@ class FacadeScene:
             return 0
         dirty = np.array(sorted(self._dirty))
         self._dirty.clear()
-        moved = dirty[~(np.abs(self.fold_angle_rad[dirty] - self.logged_angle_rad[dirty])
-                        <= self.min_change_rad)]
-        self.counts.meshes_unchanged += len(dirty) - len(moved)
+        stamped = dirty[self.stamp_ns[dirty] > 0]  # a mesh needs a fold angle and its stamp
+        moved = stamped[~(np.abs(self.fold_angle_rad[stamped] - self.logged_angle_rad[stamped])
+                          <= self.min_change_rad)]
+        self.counts.meshes_unchanged += len(stamped) - len(moved)
         if len(moved):
             self._log_meshes(moved)
         for i in dirty:

@@ -118,7 +118,7 @@ def launch_setup(context, *args, **kwargs):
 
 
 def _observers(context, facade_file):
-    """The recorder and the bridge, when asked for; both on the simulated clock."""
+    """Return the recorder and the bridge, when asked for; both on the simulated clock."""
     actions = []
     bag = _configuration(context, 'record_bag').strip()
     if bag:

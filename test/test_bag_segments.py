@@ -344,7 +344,8 @@ def test_read_messages_filters_and_orders(tmp_path):
 def test_read_messages_unknown_topic(tmp_path):
     bag = tmp_path / 'replay'
     record_mixed(bag, n=2)
-    with pytest.raises(BagError, match=r'has no topic /missing; it has 3 topics: /mode, /pressure, /set'):
+    with pytest.raises(BagError,
+                       match=r'has no topic /missing; it has 3 topics: /mode, /pressure, /set'):
         read_messages(bag, topics=['/setpoint', '/missing'])
 
 

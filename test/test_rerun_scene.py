@@ -195,3 +195,22 @@ def test_small_facade_scene(tmp_path, small_facade_text):
     facade = build_facade(small_facade_text('period_s: 60'))
     scene, _ = record(tmp_path / 'small.rrd', facade, steps=2)
     assert scene.counts.meshes_logged == 2 * len(facade)
+
+
+def test_nothing_is_placed_before_a_stamped_state(tmp_path, facade):
+    path = tmp_path / 'early.rrd'
+    recording = open_recording('test', None, check_rrd_path(path), strict=True)
+    scene = FacadeScene(facade, recording)
+    scene.closure_value(facade.panel_ids[0], 0, 0.4)  # before the first /clock: stamp 0
+    scene.status(facade.panel_ids[0], 0, 'tracking')
+    assert scene.flush() == 0
+    scene.pressure(facade.panel_ids[1], T0_NS, ATMOSPHERIC_PRESSURE_PA)  # no fold angle yet
+    assert scene.flush() == 0
+    scene.fold_angle(facade.panel_ids[0], T0_NS + 1, 0.5)
+    assert scene.flush() == 1
+    recording.flush()
+    recording.disconnect()
+    rrd = Rrd(path)
+    components = ('Mesh3D:vertex_positions', 'Mesh3D:albedo_factor', 'TextLog:text')
+    times = [t for e in rrd.entities() for c in components for t, _ in rrd.rows(e, c)]
+    assert times and min(times) >= T0_NS
