@@ -17,7 +17,7 @@ import sys
 import threading
 import time
 
-from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 import rclpy
 from rclpy.clock import Clock, ClockType
 from rclpy.event_handler import SubscriptionEventCallbacks, UnsupportedEventTypeError
@@ -27,6 +27,7 @@ from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 
 from flectofold_ros.bag_segments import BagError, SegmentedBagWriter
+from flectofold_ros.diagnostics import diagnostic_array
 from flectofold_ros.message_types import message_class
 from flectofold_ros.parameters import declare_all, double, string, strings
 from flectofold_ros.spinning import make_executor, print_usage_if_asked, spin_until
@@ -242,14 +243,9 @@ class BagRecorder(Node):
         level = DiagnosticStatus.ERROR if f['error'] else (
             DiagnosticStatus.WARN if f['dropped_queue'] or f['lost_in_transport']
             else DiagnosticStatus.OK)
-        array = DiagnosticArray()
-        array.header.stamp = self.get_clock().now().to_msg()
-        array.status.append(DiagnosticStatus(
-            level=level, name=f'{self.get_fully_qualified_name()}: recording',
-            hardware_id='bag_recorder', message=f['error'] or f'{f["written"]} written',
-            values=[KeyValue(key=k, value=f'{v:.6g}' if isinstance(v, float) else str(v))
-                    for k, v in f.items()]))
-        self._diagnostics.publish(array)
+        self._diagnostics.publish(diagnostic_array(
+            self, level, 'recording', 'bag_recorder', f['error'] or f'{f["written"]} written',
+            f))
 
 
 def main(args=None):

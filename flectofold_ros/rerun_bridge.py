@@ -12,7 +12,7 @@ from datetime import datetime
 import sys
 import time
 
-from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from geometry_msgs.msg import Vector3Stamped
 import rclpy
 from rclpy.clock import Clock, ClockType
@@ -24,6 +24,7 @@ from sensor_msgs.msg import FluidPressure, JointState
 from std_msgs.msg import Float64, String
 
 from flectofold_model.facade import DEFAULT_FACADE, FacadeError, load_facade
+from flectofold_ros.diagnostics import diagnostic_array
 from flectofold_ros.parameters import boolean, declare_all, double, string
 from flectofold_ros.rerun_scene import COLOR_MODES, FacadeScene, feed, scene_topics
 from flectofold_ros.rerun_sinks import BridgeError, choose_sinks, open_recording, spawn_viewer
@@ -120,14 +121,9 @@ class RerunBridge(Node):
 
     def _report(self):
         figures = self.figures()
-        array = DiagnosticArray()
-        array.header.stamp = self.get_clock().now().to_msg()
-        array.status.append(DiagnosticStatus(
-            level=DiagnosticStatus.OK, name=f'{self.get_fully_qualified_name()}: rerun',
-            hardware_id='rerun_bridge', message=f'{figures["meshes_logged"]} meshes logged',
-            values=[KeyValue(key=k, value=f'{v:.6g}' if isinstance(v, float) else str(v))
-                    for k, v in figures.items()]))
-        self._diagnostics.publish(array)
+        self._diagnostics.publish(diagnostic_array(
+            self, DiagnosticStatus.OK, 'rerun', 'rerun_bridge',
+            f'{figures["meshes_logged"]} meshes logged', figures))
 
     def summary(self):
         """One line for the end of a run."""

@@ -2,6 +2,7 @@
 
 import signal
 
+from diagnostic_msgs.msg import DiagnosticArray
 import numpy as np
 import pytest
 from rclpy.qos import DurabilityPolicy, QoSProfile
@@ -70,8 +71,15 @@ def publish_known_numbers(graph):
 @pytest.mark.parametrize('sig', [signal.SIGINT, signal.SIGTERM])
 def test_the_bag_holds_what_was_published_and_survives_the_signal(graph, tmp_path, sig):
     start = start_recorder(graph, tmp_path / 'bag')
+    reports = []
+    graph.node.create_subscription(
+        DiagnosticArray, '/diagnostics',
+        lambda m: reports.extend(s for s in m.status if s.hardware_id == 'bag_recorder'), 10)
     # The recorder discovers /test/pressure and /test/state when they appear.
     published = publish_known_numbers(graph)
+    assert graph.spin_until(lambda: reports and reports[-1].message == '401 written', 10.0)
+    figures = {item.key: item.value for item in reports[-1].values}
+    assert (figures['dropped_queue'], figures['lost_in_transport']) == ('0', '0')
     code, output = graph.stop(start, sig=sig, timeout_s=30.0)
     assert code == 0, output
     counts, qos = bag_counts(tmp_path / 'bag')
