@@ -299,8 +299,13 @@ def _local_time(epoch_s, utc_offset_h):
     return datetime.datetime.fromtimestamp(epoch_s, zone).strftime('%Y-%m-%d %H:%M')
 
 
-def summary_lines(monitor, plan, wall_s, interrupted):
-    """Return the end-of-run summary: the day's figures, then CPU and memory."""
+def summary_lines(monitor, plan, wall_s, interrupted, process_wall_s=None):
+    """Return the end-of-run summary: the day's figures, then CPU and memory.
+
+    ``wall_s`` is the day's wall time (the speed-up); ``process_wall_s``, the whole run's,
+    start-up included, over which the CPU time was spent (default ``wall_s``).
+    """
+    process_wall_s = wall_s if process_wall_s is None else process_wall_s
     facade, coordinator = monitor.facade, monitor.coordinator
     sim_s = monitor.sun.sim_epoch_s - datetime.datetime.fromisoformat(plan.start_iso).timestamp()
     usage = resource.getrusage(resource.RUSAGE_SELF)
@@ -331,7 +336,8 @@ def summary_lines(monitor, plan, wall_s, interrupted):
                   f'panel), final |closure - setpoint| max {error:.3f}',
                   f'  faults: {", ".join(faults) or "none"}; setpoints rejected {rejected:.0f};'
                   f' panels in setpoint timeout {timeouts}']
-    lines.append(f'  CPU {cpu_s:.1f} s ({cpu_s / max(wall_s, 1e-9):.2f} cores); peak RSS '
+    lines.append(f'  CPU {cpu_s:.1f} s in {process_wall_s:.0f} s '
+                 f'({cpu_s / max(process_wall_s, 1e-9):.2f} cores); peak RSS '
                  f'{usage.ru_maxrss / 1024:.0f} MB this process'
                  + (f', {children.ru_maxrss / 1024:.0f} MB largest child'
                     if children.ru_maxrss else ''))
@@ -431,7 +437,8 @@ def run(options, args):
         _stop_children(children)
         _stop_children(observers, timeout_s=120.0)
         if monitor is not None:
-            print('\n'.join(summary_lines(monitor, plan, wall_s, interrupted)), flush=True)
+            lines = summary_lines(monitor, plan, wall_s, interrupted, time.monotonic() - started)
+            print('\n'.join(lines), flush=True)
         if outputs is not None:
             print('\n'.join(output_lines(outputs)), flush=True)
         for node in nodes:
