@@ -37,6 +37,10 @@ CLOCK_RATE_HZ = 50.0
 CATCH_UP_WAIT_S = 60.0
 MAX_LAG_S = 300.0
 START_WAIT_S = 60.0
+#: After the graph shows every subscription, the publishers in other processes still have to
+#: match them: the clock starts this much later [s of wall time].
+MATCH_SETTLE_S = 1.0
+PANEL_STATE = ('joint_states', 'pressure', 'closure')
 
 
 @dataclass(frozen=True)
@@ -241,9 +245,10 @@ class Monitor(Node):
         """
         if self.count_subscribers('/facade/sun') < 1 + self.observers:
             return False
-        return all(self.count_publishers(f'/facade/{panel_id}/closure') >= 1
-                   and self.count_subscribers(f'/facade/{panel_id}/closure') >= self.observers
-                   for panel_id in self.facade.panel_ids)
+        return all(self.count_publishers(topic) >= 1
+                   and self.count_subscribers(topic) >= self.observers
+                   for panel_id in self.facade.panel_ids
+                   for topic in (f'/facade/{panel_id}/{name}' for name in PANEL_STATE))
 
     def start_day(self):
         self.starting = False
@@ -422,6 +427,9 @@ def run(options, args):
         if not monitor.ready():
             print(f'facade: not every panel and observer was up after '
                   f'{time.monotonic() - waited:.0f} s; starting the day anyway', flush=True)
+        elif observers:
+            settled = time.monotonic()
+            spin_until(executor, lambda: time.monotonic() - settled > MATCH_SETTLE_S)
         monitor.start_day()
         spin_until(executor, lambda: monitor.done)
         interrupted = not monitor.done

@@ -34,6 +34,8 @@ _TYPES = {'sensor_msgs/msg/JointState': JointState, 'sensor_msgs/msg/FluidPressu
           'std_msgs/msg/Float64': Float64, 'std_msgs/msg/String': String,
           'geometry_msgs/msg/Vector3Stamped': Vector3Stamped}
 LATCHED = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL)
+#: A panel loop catching up publishes its states in a burst: keep them all.
+STATE_DEPTH = 100
 
 PARAMETERS = {
     'facade_file': ('', string('Facade description YAML; empty: the embedded demonstrator')),
@@ -79,7 +81,7 @@ class RerunBridge(Node):
         self.scene.log_static()
         for topic, msgtype, latched in scene_topics(facade):
             self.create_subscription(_TYPES[msgtype], topic, self._callback(topic),
-                                     LATCHED if latched else 10)
+                                     LATCHED if latched else STATE_DEPTH)
         steady = Clock(clock_type=ClockType.STEADY_TIME)
         self.create_timer(value('flush_period_s'), self.flush, clock=steady)
         self._diagnostics = self.create_publisher(DiagnosticArray, '/diagnostics', 10)
