@@ -526,11 +526,16 @@ def _selected(reader: Reader, path: PathLike,
     if isinstance(topics, str):
         topics = [topics]
     wanted = set(topics)
-    have = {conn.topic for conn in reader.connections}
-    if missing := sorted(wanted - have):
+    require_topics(path, {conn.topic for conn in reader.connections}, wanted)
+    return [conn for conn in reader.connections if conn.topic in wanted]
+
+
+def require_topics(path: PathLike, have: Iterable[str], wanted: Iterable[str]) -> None:
+    """Raise BagError naming every topic of ``wanted`` that the bag at ``path`` lacks."""
+    have = set(have)
+    if missing := sorted(set(wanted) - have):
         raise BagError(f'bag {path} has no topic {", ".join(missing)}; '
                        f'it has {topic_list(have)}')
-    return [conn for conn in reader.connections if conn.topic in wanted]
 
 
 def _segment_files(path: Path) -> list[Path]:

@@ -12,7 +12,8 @@ import struct
 from rosbags.serde import SerdeError
 from rosbags.typesys import get_typestore, Stores
 
-from flectofold_ros.bag_segments import bag_topics, BagError, read_messages, topic_list
+from flectofold_ros.bag_segments import bag_topics, BagError, read_messages, require_topics, \
+    topic_list
 from flectofold_ros.rerun_scene import FacadeScene, feed, scene_topics
 from flectofold_ros.rerun_sinks import check_rrd_path, open_recording
 
@@ -52,15 +53,12 @@ def convert(bag_path, rrd_path, facade, color_by='closure', flush_period_s=1.0,
     rrd_path = check_rrd_path(rrd_path)
     available = bag_topics(bag_path)
     if topics is not None:
-        unknown = sorted(set(topics) - set(available))
-        if unknown:
-            raise BagError(f'bag {bag_path} has no topic {", ".join(unknown)}; it has '
-                           f'{topic_list(available)}')
+        require_topics(bag_path, available, topics)
         available = {topic: available[topic] for topic in topics}
     wanted = [topic for topic, _, _ in scene_topics(facade) if topic in available]
     if not wanted:
         raise BagError(f'{bag_path}: no topic of facade {facade.name!r} in the bag '
-                       f'(it has {", ".join(sorted(available)) or "none"})')
+                       f'(it has {topic_list(available)})')
     recording = open_recording(f'{facade.name}-{Path(bag_path).name}', None, rrd_path, strict)
     scene = FacadeScene(facade, recording, color_by, min_change_rad, every_state=True)
     scene.log_static()

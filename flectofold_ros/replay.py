@@ -12,7 +12,7 @@ import math
 import sys
 import time
 
-from flectofold_ros.bag_segments import bag_topics, BagError, read_messages, topic_list
+from flectofold_ros.bag_segments import bag_topics, BagError, read_messages, require_topics
 
 DEFAULT_FLUSH_PERIOD_S = 1.0
 
@@ -67,10 +67,7 @@ def play(options, args):
 
     topics = bag_topics(options.bag)
     selected = options.topics or sorted(topics)
-    unknown = sorted(set(selected) - set(topics))
-    if unknown:
-        raise BagError(f'bag {options.bag} has no topic {", ".join(unknown)}; it has '
-                       f'{topic_list(topics)}')
+    require_topics(options.bag, topics, selected)  # before anything joins the graph
     rclpy.init(args=args)
     node = rclpy.create_node('replay')
     published, loops = 0, 0

@@ -116,6 +116,8 @@ class FacadeScene:
         self.every_state = every_state
         self.index = {panel_id: i for i, panel_id in enumerate(facade.panel_ids)}
         self.model = FoldModel(PanelBatch.from_panels(facade.panels))
+        self.positions_enu = facade.origin_m @ facade.facade_to_enu.T
+        """(N, 3) panel origins in the site ENU frame [m]."""
         count = len(facade)
         self.angle_limits_rad = (self.model.fold_angle_from_closure(np.zeros(count)),
                                  self.model.fold_angle_from_closure(np.ones(count)))
@@ -142,7 +144,7 @@ class FacadeScene:
         """Log the frame convention, the surface, the panel poses and the mesh faces."""
         rec = self.recording
         rec.log('/', rr.ViewCoordinates.RIGHT_HAND_Z_UP, static=True)
-        positions = self.panel_positions_enu()
+        positions = self.positions_enu
         rotations = self.facade.panel_to_enu
         faces = fold_mesh(self.model.batch, np.zeros(len(self.facade))).faces.astype(np.uint32)
         for panel_id, i in self.index.items():
@@ -158,10 +160,6 @@ class FacadeScene:
                                              triangle_indices=triangles,
                                              albedo_factor=_SURFACE_RGBA), static=True)
 
-    def panel_positions_enu(self):
-        """(N, 3) panel origins in the site ENU frame [m]."""
-        return self.facade.origin_m @ self.facade.facade_to_enu.T
-
     def surface_facets(self, depth_m=0.05):
         """One quad per patch, ``depth_m`` behind the panels: (4N, 3) vertices, (2N, 3) faces."""
         batch = self.model.batch
@@ -170,7 +168,7 @@ class FacadeScene:
                                      axis=-1)
                             for sx, sy in ((-1, -1), (1, -1), (1, 1), (-1, 1))], axis=1)
         world = np.einsum('nij,nkj->nki', self.facade.panel_to_enu, corners) \
-            + self.panel_positions_enu()[:, None, :]
+            + self.positions_enu[:, None, :]
         base = 4 * np.arange(len(batch))[:, None]
         triangles = np.concatenate([base + [0, 1, 2], base + [0, 2, 3]]).astype(np.uint32)
         return world.reshape(-1, 3).astype(np.float32), triangles
@@ -330,7 +328,7 @@ class FacadeScene:
         if vector[2] <= 0.0:
             self.recording.log('/sun', rr.Clear(recursive=False))
         else:
-            centre = self.panel_positions_enu().mean(axis=0)
+            centre = self.positions_enu.mean(axis=0)
             self.recording.log('/sun', rr.Arrows3D(
                 origins=[centre + SUN_ARROW_M * vector], vectors=[-SUN_ARROW_M * vector],
                 colors=[(255, 196, 0)], labels=['sun']))
