@@ -11,12 +11,13 @@ setup(
     name=PACKAGE,
     version='0.1.0',
     packages=find_packages(exclude=['test', 'test.*', 'bench']),
-    package_data={'flectofold_model': ['data/*.yaml']},
+    package_data={'flectofold_model.facade': ['data/*.yaml']},
     data_files=[
         ('share/ament_index/resource_index/packages', ['resource/' + PACKAGE]),
         (os.path.join('share', PACKAGE), ['package.xml']),
         (os.path.join('share', PACKAGE, 'msg_docs'), glob('msg_docs/*.md')),
         (os.path.join('share', PACKAGE, 'launch'), glob('launch/*launch.[pxy][yma]*')),
+        (os.path.join('share', PACKAGE, 'config'), glob('config/*.yaml')),
     ],
     # Python dependencies are pinned in requirements.txt (the venv) and named as rosdep keys
     # in package.xml (apt installs); setuptools only needs itself, as for every ament package.
@@ -27,18 +28,20 @@ setup(
     description='Kinetic facade arrays of Flectofold panels on ROS 2.',
     license='Apache-2.0',
     extras_require={'test': ['pytest']},
+    # Every executable starts through flectofold_ros.executables, which takes over the stop
+    # signals before the heavy imports (see flectofold_ros/runner.py).
     entry_points={
         'console_scripts': [
-            'fold_table = flectofold_ros.fold_table:main',
-            'day_report = flectofold_ros.day_report:main',
-            'panel_node = flectofold_ros.panel_node:main',
-            'panel_group = flectofold_ros.panel_group:main',
-            'sun_position_node = flectofold_ros.sun_position_node:main',
-            'coordinator_node = flectofold_ros.coordinator_node:main',
-            'facade = flectofold_ros.facade:main',
-            'rerun_bridge = flectofold_ros.rerun_bridge:main',
-            'bag_recorder = flectofold_ros.bag_recorder:main',
-            'replay = flectofold_ros.replay:main',
+            'fold_table = flectofold_ros.executables:fold_table',
+            'day_report = flectofold_ros.executables:day_report',
+            'panel_node = flectofold_ros.executables:panel_node',
+            'panel_group = flectofold_ros.executables:panel_group',
+            'sun_position_node = flectofold_ros.executables:sun_position_node',
+            'coordinator_node = flectofold_ros.executables:coordinator_node',
+            'facade = flectofold_ros.executables:facade',
+            'rerun_bridge = flectofold_ros.executables:rerun_bridge',
+            'bag_recorder = flectofold_ros.executables:bag_recorder',
+            'replay = flectofold_ros.executables:replay',
         ],
     },
 )

@@ -11,11 +11,10 @@ from _timing import best_and_median
 import numpy as np
 
 from flectofold_model.actuation import (ActuationModel, CushionMap, DEMONSTRATOR_ACTUATED,
-                                        FLECTOLINE_ACTUATED, radius_study)
-from flectofold_model.loop_simulation import simulate, step_metrics
-from flectofold_model.pneumatics import (DEMONSTRATOR_PLANT, physical_fill_time_s,
-                                         PneumaticPlant)
-from flectofold_model.pressure_control import PressureController
+                                        DEMONSTRATOR_PLANT, FLECTOLINE_ACTUATED,
+                                        physical_fill_time_s, PneumaticPlant, radius_study)
+from flectofold_model.control.loop_simulation import simulate, step_metrics
+from flectofold_model.control.pressure_loop import PressureController
 
 
 def presets():

@@ -13,11 +13,11 @@ import time
 import numpy as np
 import rerun as rr
 
-from flectofold_model.facade import DEFAULT_FACADE, load_facade
-from flectofold_model.mesh import fold_mesh
-from flectofold_model.pneumatics import ATMOSPHERIC_PRESSURE_PA
-from flectofold_ros.rerun_scene import FacadeScene
-from flectofold_ros.rerun_sinks import open_recording
+from flectofold_model.actuation import ATMOSPHERIC_PRESSURE_PA
+from flectofold_model.facade.description import DEFAULT_FACADE, load_facade
+from flectofold_model.kinematics.mesh import fold_mesh
+from flectofold_ros.rerun.scene import FacadeScene
+from flectofold_ros.rerun.sinks import open_recording
 
 STEPS = 100
 T0_NS = 1782036000 * 10**9

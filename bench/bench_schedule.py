@@ -12,13 +12,13 @@ os.environ.setdefault('OPENBLAS_NUM_THREADS', '1')
 from _timing import best_and_median  # noqa: E402
 import numpy as np  # noqa: E402
 
-from flectofold_model.closure import FoldModel  # noqa: E402
-from flectofold_model.day_report import simulate_day  # noqa: E402
-from flectofold_model.facade import load_facade  # noqa: E402
-from flectofold_model.panel import DEMONSTRATOR_MODULE, PanelBatch  # noqa: E402
-from flectofold_model.scheduler import Scheduler, SchedulerParameters  # noqa: E402
-from flectofold_model.shading import blocked_fraction  # noqa: E402
-from flectofold_model.shading_table import ShadingTable  # noqa: E402
+from flectofold_model.facade.description import load_facade  # noqa: E402
+from flectofold_model.kinematics.closure import FoldModel  # noqa: E402
+from flectofold_model.kinematics.panel import DEMONSTRATOR_MODULE, PanelBatch  # noqa: E402
+from flectofold_model.scheduling.day_report import simulate_day  # noqa: E402
+from flectofold_model.scheduling.scheduler import Scheduler, SchedulerParameters  # noqa: E402
+from flectofold_model.shading.ray_casting import blocked_fraction  # noqa: E402
+from flectofold_model.shading.table import ShadingTable  # noqa: E402
 
 
 def median_ms(function, repeats):

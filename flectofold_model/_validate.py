@@ -63,3 +63,25 @@ def _first_bad(array, bad):
         return f'{float(array):g}'
     index = np.unravel_index(flat[0], array.shape)
     return f'{float(array[index]):g} at index {tuple(int(i) for i in index)}'
+
+
+def panel_mask(panels, count):
+    """Turn a boolean mask (N,) or an array of panel indices into a boolean ``(N,)`` mask."""
+    if isinstance(panels, (str, bytes)):
+        raise TypeError(f'panels must be a boolean mask or panel indices, got {panels!r}')
+    selection = np.asarray(panels)
+    if selection.dtype == np.bool_:
+        if selection.shape != (count,):
+            raise ValueError(f'a panel mask must have shape ({count},), '
+                             f'got shape {selection.shape}')
+        return selection.copy()
+    if selection.size == 0:
+        return np.zeros(count, dtype=bool)
+    if selection.dtype.kind not in 'iu':
+        raise TypeError(f'panels must be a boolean mask or panel indices, got {panels!r}')
+    selection = selection.reshape(-1)
+    if np.any(selection < 0) or np.any(selection >= count):
+        raise ValueError(f'panel indices must lie in [0, {count - 1}], got {panels!r}')
+    mask = np.zeros(count, dtype=bool)
+    mask[selection] = True
+    return mask

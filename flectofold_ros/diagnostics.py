@@ -1,18 +1,29 @@
-"""One REP-107 diagnostics message from a node's figures."""
+"""REP-107 diagnostics of the package's nodes, built one way.
+
+Every node reports one ``DiagnosticStatus`` per component on ``/diagnostics``, named
+``<node's full name>: <component>``, with its figures as ``KeyValue`` text (floats with 12
+significant digits, enough for a POSIX time to the microsecond).
+"""
 
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 
+OK, WARN, ERROR = DiagnosticStatus.OK, DiagnosticStatus.WARN, DiagnosticStatus.ERROR
 
-def diagnostic_array(node, level, what, hardware_id, message, figures):
-    """Return a ``DiagnosticArray`` stamped now with one status named ``<node>: <what>``.
 
-    ``figures`` maps keys to numbers or text; floats are written with 6 significant digits.
-    """
-    array = DiagnosticArray()
-    array.header.stamp = node.get_clock().now().to_msg()
-    array.status.append(DiagnosticStatus(
-        level=level, name=f'{node.get_fully_qualified_name()}: {what}',
+def status(node, level, component, hardware_id, message, figures):
+    """One ``DiagnosticStatus`` of ``node``'s ``component`` with ``figures`` as key/values."""
+    return DiagnosticStatus(
+        level=level, name=f'{node.get_fully_qualified_name()}: {component}',
         hardware_id=hardware_id, message=message,
-        values=[KeyValue(key=k, value=f'{v:.6g}' if isinstance(v, float) else str(v))
-                for k, v in figures.items()]))
+        values=[KeyValue(key=key, value=_text(value)) for key, value in figures.items()])
+
+
+def diagnostic_array(node, statuses):
+    """Return a ``DiagnosticArray`` of ``statuses`` stamped with ``node``'s clock now."""
+    array = DiagnosticArray(status=list(statuses))
+    array.header.stamp = node.get_clock().now().to_msg()
     return array
+
+
+def _text(value):
+    return f'{value:.12g}' if isinstance(value, float) else str(value)

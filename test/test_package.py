@@ -1,7 +1,9 @@
 """The package as ROS tools see it: package.xml, the colcon install layout, lint, purity."""
 
+import ast
 import os
 from pathlib import Path
+import re
 import shutil
 import subprocess
 import sys
@@ -9,9 +11,10 @@ import sys
 from catkin_pkg.package import parse_package
 import pytest
 
+from flectofold_ros import executables
+
 ROOT = Path(__file__).resolve().parents[1]
-EXECUTABLES = ['fold_table', 'day_report', 'panel_node', 'panel_group', 'sun_position_node',
-               'coordinator_node', 'facade', 'rerun_bridge', 'bag_recorder', 'replay']
+EXECUTABLES = sorted(executables.EXECUTABLES)
 IGNORED_IN_COPY = shutil.ignore_patterns('.venv', '.git', 'build', 'install', 'log', 'out',
                                          '__pycache__', '*.egg-info', '.pytest_cache')
 
@@ -28,10 +31,13 @@ def test_package_xml_is_format_3_ament_python():
     assert package.name == 'flectofold_ros'
     assert package.package_format == 3
     assert package.get_build_type() == 'ament_python'
-    exec_depends = {dependency.name for dependency in package.exec_depends}
-    assert {'rclpy', 'std_msgs', 'sensor_msgs', 'geometry_msgs',
-            'diagnostic_msgs'} <= exec_depends
     assert all('@' in maintainer.email for maintainer in package.maintainers)
+
+
+def test_every_executable_is_a_console_script_through_the_signal_safe_entry_point():
+    setup = (ROOT / 'setup.py').read_text()
+    scripts = dict(re.findall(r"'(\w+) = ([\w.:]+)'", setup))
+    assert scripts == {name: f'flectofold_ros.executables:{name}' for name in EXECUTABLES}
 
 
 def test_setup_cfg_puts_scripts_where_ros2_run_looks():
@@ -54,6 +60,7 @@ def colcon_install(tmp_path_factory):
     return workspace / 'install' / 'flectofold_ros'
 
 
+@pytest.mark.graph
 def test_colcon_installs_the_ament_layout(colcon_install):
     assert (colcon_install / 'share' / 'ament_index' / 'resource_index' / 'packages'
             / 'flectofold_ros').is_file()
@@ -63,6 +70,7 @@ def test_colcon_installs_the_ament_layout(colcon_install):
         assert os.access(colcon_install / 'lib' / 'flectofold_ros' / name, os.X_OK)
 
 
+@pytest.mark.graph
 def test_ros2_run_finds_and_starts_every_executable(colcon_install):
     """Resolve executables the way ``ros2 run`` does: ament index prefix, then lib/<pkg>/."""
     site_packages = next((colcon_install / 'lib').glob('python3*/site-packages'))
@@ -87,6 +95,7 @@ def test_ros2_run_finds_and_starts_every_executable(colcon_install):
         assert 'usage' in run.stdout
 
 
+@pytest.mark.graph
 def test_executables_are_console_scripts_in_the_venv():
     for name in EXECUTABLES:
         run = subprocess.run([venv_tool(name), '--help'], capture_output=True, text=True,
@@ -94,13 +103,107 @@ def test_executables_are_console_scripts_in_the_venv():
         assert run.returncode == 0, run.stderr
 
 
-def test_model_library_never_imports_rclpy():
-    for path in (ROOT / 'flectofold_model').rglob('*.py'):
-        assert 'rclpy' not in path.read_text(), path
+#: The parts that must run without rclpy (the model; the ROS package's pure parts).
+RCLPY_FREE = ['flectofold_model', 'flectofold_ros.contract', 'flectofold_ros.bringup.plan',
+              'flectofold_ros.recording', 'flectofold_ros.rerun', 'flectofold_ros.commands',
+              'flectofold_ros.runner', 'flectofold_ros.executables']
+
+
+def modules_of(dotted):
+    path = ROOT.joinpath(*dotted.split('.'))
+    if path.is_dir():
+        return list(path.rglob('*.py'))
+    return [path.with_suffix('.py')]
+
+
+@pytest.mark.parametrize('part', RCLPY_FREE)
+def test_the_pure_parts_never_import_rclpy(part):
+    for path in modules_of(part):  # at import time; run_nodes imports rclpy when called
+        imported = {name.split('.')[0] for name in imported_modules(path, lazy=False)}
+        assert 'rclpy' not in imported, path
+    names = [f'{part}.{p.relative_to(ROOT.joinpath(*part.split("."))).with_suffix("")}'
+             .replace('/', '.').replace('.__init__', '')
+             for p in modules_of(part)] if ROOT.joinpath(*part.split('.')).is_dir() else [part]
     check = subprocess.run(
-        [sys.executable, '-c', 'import sys, flectofold_model, flectofold_model.mesh;'
-         'assert "rclpy" not in sys.modules'], cwd=ROOT, capture_output=True, text=True)
+        [sys.executable, '-c', 'import importlib, sys\n'
+         f'for name in {names!r}: importlib.import_module(name)\n'
+         'assert "rclpy" not in sys.modules, "rclpy was imported"'],
+        cwd=ROOT, capture_output=True, text=True, timeout=120)
     assert check.returncode == 0, check.stderr
+
+
+def imported_modules(path, lazy=True):
+    """Absolute module names a Python file imports; ``lazy``: in functions too."""
+    tree = ast.parse(path.read_text())
+    names = set()
+    for node in (ast.walk(tree) if lazy else tree.body):
+        if isinstance(node, ast.Import):
+            names.update(alias.name for alias in node.names)
+        elif isinstance(node, ast.ImportFrom) and node.level == 0:
+            names.add(node.module)
+    return names
+
+
+#: Top-level module -> rosdep key of the package that provides it.
+ROSDEP_KEYS = {
+    'numpy': 'python3-numpy', 'scipy': 'python3-scipy', 'pandas': 'python3-pandas',
+    'yaml': 'python3-yaml', 'ruamel': 'python3-ruamel.yaml', 'matplotlib': 'python3-matplotlib',
+    'rosbags': 'python3-rosbags-pip', 'pvlib': 'python3-pvlib-pip',
+    'rerun': 'python3-rerun-sdk-pip', 'rerun_cli': 'python3-rerun-sdk-pip',
+    'launch_ros': 'launch_ros',
+}
+#: ROS packages whose Python module has the package's name.
+ROS_PACKAGES = {'rclpy', 'builtin_interfaces', 'rcl_interfaces', 'std_msgs', 'std_srvs',
+                'geometry_msgs', 'sensor_msgs', 'diagnostic_msgs', 'rosgraph_msgs', 'launch'}
+
+
+def test_package_xml_names_every_module_the_code_imports():
+    own = {'flectofold_model', 'flectofold_ros'}
+    imported = set()
+    for path in [*ROOT.glob('flectofold_*/**/*.py'), *ROOT.glob('launch/*.py')]:
+        imported |= {name.split('.')[0] for name in imported_modules(path)}
+    third_party = sorted(imported - own - set(sys.stdlib_module_names))
+    unknown = [name for name in third_party if name not in ROSDEP_KEYS and
+               name not in ROS_PACKAGES]
+    assert not unknown, f'map these imports to rosdep keys here and in package.xml: {unknown}'
+    package = parse_package(str(ROOT / 'package.xml'))
+    exec_depends = {dependency.name for dependency in package.exec_depends}
+    needed = {ROSDEP_KEYS.get(name, name) for name in third_party}
+    # Interfaces the contract names are imported by name (flectofold_ros.interfaces).
+    needed |= {type_name.split('/')[0] for type_name in contract_types()}
+    assert needed <= exec_depends, sorted(needed - exec_depends)
+    assert exec_depends <= needed, f'not imported: {sorted(exec_depends - needed)}'
+
+
+def contract_types():
+    from flectofold_ros import contract
+    topics = [value for value in vars(contract).values()
+              if isinstance(value, (contract.Topic, contract.PanelTopic))]
+    return {topic.msgtype for topic in topics} | {contract.RESET_FAULTS_TYPE}
+
+
+def test_package_xml_names_what_the_tests_and_lint_use():
+    package = parse_package(str(ROOT / 'package.xml'))
+    test_depends = {dependency.name for dependency in package.test_depends}
+    linters = {line.split('==')[0].strip().replace('_', '-') for line in
+               (ROOT / 'requirements.txt').read_text().splitlines()
+               if line.startswith('flake8')}
+    assert {f'python3-{name}' for name in linters} <= test_depends
+    assert {'python3-pytest', 'python3-catkin-pkg', 'python3-colcon-common-extensions',
+            'ament_index_python'} <= test_depends
+
+
+def test_graph_tests_are_marked():
+    """Tests that start ROS processes or contexts carry the ``graph`` marker.
+
+    ``./run test -m "not graph"`` is the fast inner loop; it must not start ROS.
+    """
+    for path in (ROOT / 'test').rglob('test_*.py'):
+        text = path.read_text()
+        starts_ros = 'ros_graph' in imported_modules(path) or 'rclpy.init' in text or \
+            'rclpy.context' in imported_modules(path)
+        if starts_ros:
+            assert 'pytestmark = pytest.mark.graph' in text, path
 
 
 def test_flake8_with_the_ament_configuration():

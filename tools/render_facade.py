@@ -55,11 +55,11 @@ TOLERANCE_NS = 60 * 10**9
 def default_utc_offset():
     """UTC offset [h] of the demonstrator facade YAML, or 2.0 if it cannot be read."""
     try:
-        from flectofold_model.facade import DEFAULT_FACADE, load_facade
+        from flectofold_model.facade.description import DEFAULT_FACADE, load_facade
     except ImportError:
         sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
         try:
-            from flectofold_model.facade import DEFAULT_FACADE, load_facade
+            from flectofold_model.facade.description import DEFAULT_FACADE, load_facade
         except ImportError:
             return 2.0
     try:

@@ -1,0 +1,330 @@
+"""Pneumatic plant of Flectofold cushions: N chambers integrated in continuous time.
+
+Each panel's cushion is a chamber of absolute pressure ``p`` fed from a supply through a fill
+valve and emptied to the atmosphere through a vent valve, a leak and a relief valve, each an
+ISO 6358 valve (:mod:`.flow`) of the circuit (:mod:`.circuit`). The chamber is isothermal:
+with air mass ``m`` and volume ``V(p)``, ``p V = m R T`` gives
+``dp/dt = R T mdot_net / (V + p dV/dp)``. For a soft cushion the compliance ``dV/dp`` dominates
+the air's own compressibility ``V / p``. The cushion's volume and compliance come from a
+*cushion map*, a callable written elsewhere (:class:`~.cushion_map.CushionMap`)::
+
+    cushion_map(gauge_pressure_pa) -> (volume_m3, compliance_m3_per_pa)
+
+taking and returning arrays of shape ``(N,)``. The plant adds the rigid dead volume of the
+tubing to the cushion volume.
+
+References: [1] ISO 6358-1:2013; [2] the Simscape constant-volume chamber,
+``G = (V / R T)(dp/dt - (p / T) dT/dt)``; ``docs/references.md`` section 5 for the working
+pressures, conductances and fill times of the demonstrator.
+
+Pressures are in Pa (absolute unless the name says gauge), volumes in m^3, conductances in
+m^3/(s*Pa), mass flows in kg/s, times in s.
+"""
+
+import math
+from numbers import Integral
+
+import numpy as np
+
+from flectofold_model._validate import in_range, real_array, real_scalar
+from flectofold_model.actuation.circuit import PlantParameters
+from flectofold_model.actuation.faults import CircuitFaults
+from flectofold_model.actuation.flow import (AIR_GAS_CONSTANT, ANR_DENSITY_KG_M3,
+                                             ATMOSPHERIC_PRESSURE_PA, mass_flow)
+from flectofold_model.actuation.sensors import CushionSensors
+from flectofold_model.actuation.stepping import AdaptiveSubstep, FixedSubstep
+
+
+class PneumaticPlant:
+    """``N`` cushion circuits in continuous time, integrated with fixed sub-steps.
+
+    The state of each panel is its absolute cushion pressure. :meth:`step` splits any interval
+    into equal sub-steps no longer than ``parameters.max_step_s`` and integrates each with the
+    classic fourth-order Runge-Kutta scheme: the right-hand side is smooth almost everywhere,
+    cheap to evaluate on arrays and non-stiff at the millisecond scale for the documented
+    range of volumes and conductances, so an explicit fourth-order method gives errors far
+    below the sensor noise at no cost in solver logic, and stays bit-for-bit deterministic.
+    The sensor's first-order lag, the one fast mode that may be stiff (a short or zero
+    ``sensor_lag_s``), is integrated exactly for a pressure that varies linearly over each
+    sub-step, which is stable for any time constant. The pressure is held at or above
+    atmospheric after every sub-step (every source is at or above it, so this only removes
+    numerical undershoot where the vent flow vanishes); stages below it are evaluated at
+    atmospheric pressure. Two limits of the fixed step: the valve flow has a square-root
+    singularity at zero pressure difference, so a rigid chamber can settle a fraction of a Pa
+    short of its equilibrium (about 0.2 Pa for the 0.2 L dead volume alone at the default
+    step); and a cushion map whose compliance jumps (e.g. from zero when flat) makes the
+    error first order in the step for the sub-step that crosses the jump.
+
+    The sub-step is chosen by a stepper (:mod:`.stepping`): fixed at ``max_step_s`` (the
+    reference), or scaled with the active conductance (``adaptive_step=True``). The sensors
+    are :class:`~.sensors.CushionSensors`, the faults of the air path
+    :class:`~.faults.CircuitFaults`.
+
+    Parameters
+    ----------
+    parameters : PlantParameters
+        The circuit, shared by all panels.
+    cushion_map : callable
+        ``cushion_map(gauge_pressure_pa) -> (volume_m3, compliance_m3_per_pa)`` on arrays of
+        shape ``(N,)``; volumes and compliances must be finite and non-negative.
+    count : int
+        Number of panels ``N``.
+    seed : int, default 0
+        Seed of the sensor noise generator; the same seed and inputs give identical outputs.
+    initial_gauge_pa : array-like, default 0.0
+        Initial cushion gauge pressure, scalar or ``(N,)`` [Pa], ``>= 0``. The sensor starts
+        settled on it.
+    adaptive_step : bool, default False
+        Scale the sub-step with the conductance that is active (see above). ``False`` keeps
+        the fixed ``max_step_s`` sub-step, bit for bit.
+    """
+
+    def __init__(self, parameters, cushion_map, count, seed=0, initial_gauge_pa=0.0,
+                 adaptive_step=False):
+        if not isinstance(parameters, PlantParameters):
+            raise TypeError(
+                f'parameters must be a PlantParameters, got {type(parameters).__name__}')
+        if not callable(cushion_map):
+            raise TypeError(f'cushion_map must be callable, got {cushion_map!r}')
+        if isinstance(count, bool) or not isinstance(count, Integral) or count < 1:
+            raise ValueError(f'count must be a positive integer, got {count!r}')
+        if isinstance(seed, bool) or not isinstance(seed, Integral) or seed < 0:
+            raise ValueError(f'seed must be a non-negative integer, got {seed!r}')
+        if not isinstance(adaptive_step, (bool, np.bool_)):
+            raise TypeError(f'adaptive_step must be True or False, got {adaptive_step!r}')
+        self._stepper = AdaptiveSubstep() if adaptive_step else FixedSubstep()
+        self._substeps_taken = 0
+        self._parameters = parameters
+        self._cushion_map = cushion_map
+        self._count = int(count)
+        initial = self._per_panel('initial_gauge_pa', initial_gauge_pa)
+        in_range('initial_gauge_pa', initial, 0.0, np.inf, ' Pa', high_open=True)
+        self._pressure_pa = initial + ATMOSPHERIC_PRESSURE_PA
+        self.sensors = CushionSensors(parameters, self._count, seed, self._pressure_pa)
+        """The cushion and supply sensors, with their faults."""
+        self.faults = CircuitFaults(parameters, self._count)
+        """The air path's injected faults: leaks, a jammed fill valve, a lost supply."""
+        self._free_air_m3 = np.zeros(self._count)
+        self._vented_air_m3 = np.zeros(self._count)
+        self._time_s = 0.0
+        self.capacitance_m3(self._pressure_pa)
+
+    # -- state ------------------------------------------------------------------------------
+
+    @property
+    def parameters(self):
+        """The :class:`~.circuit.PlantParameters` of the circuit."""
+        return self._parameters
+
+    @property
+    def count(self):
+        """Number of panels ``N``."""
+        return self._count
+
+    @property
+    def time_s(self):
+        """Simulated time since construction [s]."""
+        return self._time_s
+
+    @property
+    def adaptive_step(self):
+        """Whether the sub-step scales with the active conductance (:mod:`.stepping`)."""
+        return isinstance(self._stepper, AdaptiveSubstep)
+
+    @property
+    def substeps_taken(self):
+        """Number of RK4 sub-steps integrated since construction: the plant's cost."""
+        return self._substeps_taken
+
+    @property
+    def absolute_pressure_pa(self):
+        """True absolute cushion pressure, ``(N,)`` [Pa]."""
+        return self._pressure_pa.copy()
+
+    @property
+    def gauge_pressure_pa(self):
+        """True cushion gauge pressure, ``(N,)`` [Pa]."""
+        return self._pressure_pa - ATMOSPHERIC_PRESSURE_PA
+
+    @property
+    def volume_m3(self):
+        """Cushion volume from the cushion map, without the dead volume, ``(N,)`` [m^3]."""
+        volume, _compliance = self.cushion(self._pressure_pa)
+        return volume.copy()
+
+    @property
+    def supply_pressure_pa(self):
+        """Current absolute supply pressure per panel, atmospheric where it was lost [Pa]."""
+        return self.faults.supply_pa.copy()
+
+    @property
+    def free_air_used_m3(self):
+        """Air that came in through the fill valve, as volume at ANR conditions [m^3].
+
+        Only inflow counts: air flowing back out through the fill valve (after a supply loss)
+        is not subtracted.
+        """
+        return self._free_air_m3.copy()
+
+    @property
+    def vented_air_m3(self):
+        """Air let out through the vent valve, as volume at ANR conditions [m^3].
+
+        The leak and the relief valve are not included.
+        """
+        return self._vented_air_m3.copy()
+
+    # -- dynamics ---------------------------------------------------------------------------
+
+    def step(self, dt_s, fill_opening, vent_opening):
+        """Advance the plant by ``dt_s`` seconds with the valves held at the given openings.
+
+        Parameters
+        ----------
+        dt_s : float
+            Interval to advance [s], ``> 0``.
+        fill_opening, vent_opening : array-like
+            Valve openings in ``[0, 1]``, scalar or ``(N,)``; a valve's conductance scales
+            linearly with its opening.
+        """
+        dt_s = real_scalar('dt_s', dt_s)
+        if dt_s <= 0.0:
+            raise ValueError(f'dt_s must be positive, got {dt_s:g} s')
+        fill = in_range('fill_opening', self._per_panel('fill_opening', fill_opening), 0.0, 1.0)
+        vent = in_range('vent_opening', self._per_panel('vent_opening', vent_opening), 0.0, 1.0)
+        fill = np.where(self.faults.fill_stuck_open, 1.0, fill)
+        fill_conductance = fill * self._parameters.fill_conductance_m3_s_pa
+        vent_conductance = vent * self._parameters.vent_conductance_m3_s_pa
+        longest, first_rates = self._stepper.longest_s(self, dt_s, fill_conductance,
+                                                       vent_conductance)
+        substeps = max(1, math.ceil(dt_s / longest * (1.0 - 1e-12)))
+        step_s = dt_s / substeps
+        for _ in range(substeps):
+            self._substep(step_s, fill_conductance, vent_conductance, first_rates)
+            first_rates = None
+        self._substeps_taken += substeps
+        self._time_s += dt_s
+
+    def _substep(self, h, fill_conductance, vent_conductance, k1=None):
+        """One RK4 step of pressure and air counters, then the exact sensor-lag update.
+
+        ``k1``, if given, is :meth:`rates` at the present pressure, already evaluated.
+        """
+        p0 = self._pressure_pa
+        if k1 is None:
+            k1 = self.rates(p0, fill_conductance, vent_conductance)
+        k2 = self.rates(p0 + 0.5 * h * k1[0], fill_conductance, vent_conductance)
+        k3 = self.rates(p0 + 0.5 * h * k2[0], fill_conductance, vent_conductance)
+        k4 = self.rates(p0 + h * k3[0], fill_conductance, vent_conductance)
+        increments = [h / 6.0 * (a + 2.0 * b + 2.0 * c + d) for a, b, c, d in zip(k1, k2, k3, k4)]
+        p1 = np.maximum(p0 + increments[0], ATMOSPHERIC_PRESSURE_PA)
+        self._free_air_m3 = self._free_air_m3 + increments[1]
+        self._vented_air_m3 = self._vented_air_m3 + increments[2]
+        self.sensors.track(p0, p1, h)
+        self._pressure_pa = p1
+
+    def rates(self, pressure_pa, fill_conductance, vent_conductance, capacitance=None):
+        """``dp/dt`` [Pa/s] and the fill inflow and vent outflow as free air [m^3/s].
+
+        The right-hand side of the integration at absolute pressures ``pressure_pa`` (N,)
+        (below atmospheric taken as atmospheric) with the valves at the given conductances
+        [m^3/(s*Pa)]. ``capacitance``, if given, is :meth:`capacitance_m3` there, already
+        evaluated.
+        """
+        parameters = self._parameters
+        p = np.maximum(pressure_pa, ATMOSPHERIC_PRESSURE_PA)
+        b = parameters.critical_ratio
+        temperature_k = parameters.temperature_k
+        fill = mass_flow(self.faults.supply_pa, p, fill_conductance, b, temperature_k)
+        per_conductance = mass_flow(p, ATMOSPHERIC_PRESSURE_PA, 1.0, b, temperature_k)
+        exhaust_conductance = (vent_conductance + self.faults.leak_conductance
+                               + self._relief_conductance(p))
+        net = fill - per_conductance * exhaust_conductance
+        if capacitance is None:
+            capacitance = self.capacitance_m3(p)
+        pressure_rate = AIR_GAS_CONSTANT * temperature_k * net / capacitance
+        return (pressure_rate, np.maximum(fill, 0.0) / ANR_DENSITY_KG_M3,
+                per_conductance * vent_conductance / ANR_DENSITY_KG_M3)
+
+    def _relief_conductance(self, pressure_pa):
+        """Relief conductance ramping from 0 at cracking to full at full-open [m^3/(s*Pa)]."""
+        parameters = self._parameters
+        opening = np.clip(
+            (pressure_pa - ATMOSPHERIC_PRESSURE_PA - parameters.relief_cracking_pa)
+            / (parameters.relief_full_open_pa - parameters.relief_cracking_pa), 0.0, 1.0)
+        return opening * parameters.relief_conductance_m3_s_pa
+
+    def capacitance_m3(self, pressure_pa, cushion=None):
+        """Isothermal capacitance ``V + p dV/dp`` of cushion plus dead volume [m^3].
+
+        ``cushion``, if given, is :meth:`cushion` at ``pressure_pa``, already evaluated.
+        """
+        volume, compliance = self.cushion(pressure_pa) if cushion is None else cushion
+        capacitance = volume + self._parameters.dead_volume_m3 + pressure_pa * compliance
+        if not np.all(capacitance > 0.0):
+            raise ValueError(
+                'the chamber has no volume: give dead_volume_m3 > 0 or a cushion map with a '
+                'positive volume or compliance')
+        return capacitance
+
+    def cushion(self, pressure_pa):
+        """Evaluate the cushion map at absolute pressures: checked (N,) volume and compliance."""
+        volume, compliance = self._cushion_map(pressure_pa - ATMOSPHERIC_PRESSURE_PA)
+        volume = np.asarray(volume, dtype=np.float64)
+        compliance = np.asarray(compliance, dtype=np.float64)
+        for name, value in (('volume_m3', volume), ('compliance_m3_per_pa', compliance)):
+            if value.shape != (self._count,):
+                raise ValueError(f'cushion_map must return {name} of shape ({self._count},), '
+                                 f'got shape {value.shape}')
+            if not np.all(value >= 0.0) or not np.all(np.isfinite(value)):
+                raise ValueError(f'cushion_map returned a negative or non-finite {name}')
+        return volume, compliance
+
+    # -- sensors ----------------------------------------------------------------------------
+
+    def read_sensor(self):
+        """Measured absolute cushion pressure, ``(N,)`` [Pa]; see :meth:`.CushionSensors.read`."""
+        return self.sensors.read()
+
+    def read_supply_sensor(self):
+        """Measured absolute supply pressure, ``(N,)`` [Pa]: no lag, the same noise level."""
+        return self.sensors.read_supply(self.faults.supply_pa)
+
+    # -- faults -----------------------------------------------------------------------------
+
+    def inject_sensor_stuck(self, panels):
+        """Freeze the cushion sensor of ``panels`` on the value it returned last.
+
+        Before the first read that is the noise-free initial reading.
+        """
+        self.sensors.inject_stuck(panels)
+
+    def inject_sensor_dropout(self, panels):
+        """Make the cushion sensor of ``panels`` read NaN."""
+        self.sensors.inject_dropout(panels)
+
+    def inject_leak(self, panels, conductance_m3_s_pa):
+        """Add a leak to atmosphere of ``conductance_m3_s_pa`` [m^3/(s*Pa)] to ``panels``."""
+        self.faults.inject_leak(panels, conductance_m3_s_pa)
+
+    def inject_fill_valve_stuck_open(self, panels):
+        """Jam the fill valve of ``panels`` wide open, whatever it is commanded."""
+        self.faults.inject_fill_valve_stuck_open(panels)
+
+    def inject_supply_loss(self, panels):
+        """Drop the supply of ``panels`` to atmospheric: an open fill valve then vents."""
+        self.faults.inject_supply_loss(panels)
+
+    def clear_faults(self):
+        """Remove every injected fault; the sensors read live values again."""
+        self.sensors.clear_faults()
+        self.faults.clear()
+
+    def _per_panel(self, name, value):
+        array = real_array(name, value)
+        if array.ndim == 0:
+            return np.full(self._count, float(array))
+        if array.shape != (self._count,):
+            raise ValueError(
+                f'{name} must be a scalar or have shape ({self._count},), got shape {array.shape}')
+        return array.copy()

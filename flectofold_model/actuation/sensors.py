@@ -1,0 +1,77 @@
+"""The pressure sensors of N cushion circuits: lag, offset, noise, and their injected faults.
+
+Each circuit has a cushion pressure sensor (a first-order lag behind the true pressure, a
+constant offset and Gaussian noise) and a supply pressure sensor (no lag, the same noise).
+Both draw their noise from one seeded generator, one draw per panel on every read, so the
+same seed and the same reads give the same readings, and a fault of one panel does not shift
+the noise of the others.
+"""
+
+import math
+
+import numpy as np
+
+from flectofold_model._validate import panel_mask
+
+
+class CushionSensors:
+    """Sensor state of ``count`` circuits of one :class:`~.circuit.PlantParameters`.
+
+    ``initial_pa`` (N,) is the absolute cushion pressure the lag starts settled on.
+    """
+
+    def __init__(self, parameters, count, seed, initial_pa):
+        self._parameters = parameters
+        self._count = count
+        self._rng = np.random.default_rng(int(seed))
+        self.lagged_pa = initial_pa.copy()
+        """The lagged true pressure, before offset and noise (N,) [Pa]."""
+        self._last_reading_pa = self.lagged_pa + parameters.sensor_offset_pa
+        self.clear_faults()
+
+    def track(self, p0, p1, h):
+        """Advance the lag over ``h`` [s] for a pressure going linearly from ``p0`` to ``p1``.
+
+        Exact for that pressure: ``s(h) = p1 + (s0 - p0) a - (p1 - p0) tau (1 - a) / h`` with
+        ``a = exp(-h / tau)``, stable for any time constant; ``tau = 0`` gives ``s = p1``.
+        """
+        tau = self._parameters.sensor_lag_s
+        if tau == 0.0:
+            self.lagged_pa = p1.copy()
+            return
+        decay = math.exp(-h / tau)
+        lagged = self.lagged_pa
+        self.lagged_pa = p1 + (lagged - p0) * decay - (p1 - p0) * (tau * (1.0 - decay) / h)
+
+    def read(self):
+        """Measured absolute cushion pressure, ``(N,)`` [Pa].
+
+        The lagged true pressure plus ``sensor_offset_pa`` plus Gaussian noise of standard
+        deviation ``sensor_noise_pa``. A stuck sensor repeats its last reading exactly (before
+        the first read, the noise-free initial one); a dropped-out sensor reads NaN.
+        """
+        parameters = self._parameters
+        noise = self._rng.standard_normal(self._count) * parameters.sensor_noise_pa
+        reading = self.lagged_pa + parameters.sensor_offset_pa + noise
+        reading = np.where(self._stuck, self._last_reading_pa, reading)
+        reading[self._dropout] = np.nan
+        self._last_reading_pa = np.where(self._stuck, self._last_reading_pa, reading)
+        return reading
+
+    def read_supply(self, supply_pa):
+        """Measured absolute supply pressure of a true ``supply_pa`` (N,) [Pa]: no lag."""
+        noise = self._rng.standard_normal(self._count) * self._parameters.sensor_noise_pa
+        return supply_pa + noise
+
+    def inject_stuck(self, panels):
+        """Freeze the cushion sensor of ``panels`` on the value it returned last."""
+        self._stuck = self._stuck | panel_mask(panels, self._count)
+
+    def inject_dropout(self, panels):
+        """Make the cushion sensor of ``panels`` read NaN."""
+        self._dropout = self._dropout | panel_mask(panels, self._count)
+
+    def clear_faults(self):
+        """Remove the sensor faults: the sensors read live values again."""
+        self._stuck = np.zeros(self._count, dtype=bool)
+        self._dropout = np.zeros(self._count, dtype=bool)

@@ -1,0 +1,28 @@
+"""Control of the panels: the pressure loop, setpoint guard, valve interface and shared loops.
+
+- :mod:`.pressure_loop`: closure setpoint -> valve openings, with fault detection
+  (:class:`PressureController`);
+- :mod:`.setpoint_guard`: setpoint validation and the watchdog (:class:`SetpointGuard`);
+- :mod:`.hardware`: the valve/sensor interface the loop drives (:class:`CushionDriver`) and its
+  simulation;
+- :mod:`.panel_loops`: the loops of the panels one process hosts (:class:`PanelLoops`), each
+  panel's handle on them (:class:`LoopRow`);
+- :mod:`.decimation`: which states to publish (:class:`PublishDecimator`);
+- :mod:`.loop_simulation`: a closed loop against the plant, and step metrics.
+"""
+
+from flectofold_model.control.decimation import PublishDecimator
+from flectofold_model.control.hardware import CushionDriver, SimulatedCushions
+from flectofold_model.control.loop_simulation import LoopTrace, simulate, step_metrics, StepMetrics
+from flectofold_model.control.panel_loops import (facade_loops, LoopAdvance, LoopRow,
+                                                  panel_indices, PanelLoops, RowSample)
+from flectofold_model.control.pressure_loop import (ControllerParameters, Fault,
+                                                    PressureController, SafeAction, ValveCommand)
+from flectofold_model.control.setpoint_guard import SafeBehaviour, SetpointGuard, SetpointState
+
+__all__ = [
+    'ControllerParameters', 'CushionDriver', 'Fault', 'LoopAdvance', 'LoopRow', 'LoopTrace',
+    'PanelLoops', 'PressureController', 'PublishDecimator', 'RowSample', 'SafeAction',
+    'SafeBehaviour', 'SetpointGuard', 'SetpointState', 'SimulatedCushions', 'StepMetrics',
+    'ValveCommand', 'facade_loops', 'panel_indices', 'simulate', 'step_metrics',
+]

@@ -1,0 +1,102 @@
+"""The valve/sensor interface a panel's pressure loop drives, and its simulated implementation.
+
+A :class:`CushionDriver` is a valve island: ``N`` cushion channels, each with a fill valve, a
+vent valve, a cushion pressure sensor and a supply pressure sensor. The pressure loop only
+reads sensors and writes valve openings through it, so a driver for real hardware (a fieldbus
+valve terminal, say) replaces :class:`SimulatedCushions` without touching the loop or the ROS
+nodes. A real driver's time passes by itself; a simulated one is advanced by the loop in
+fixed control periods (:attr:`CushionDriver.simulated`), which keeps the simulation exact
+whatever the ROS clock does.
+"""
+
+import abc
+
+import numpy as np
+
+from flectofold_model._validate import in_range, real_array
+from flectofold_model.actuation import PneumaticPlant
+
+
+class CushionDriver(abc.ABC):
+    """Sensors and valves of ``count`` cushion circuits."""
+
+    simulated = False
+    """True for a driver whose time only passes in :meth:`advance` (a simulation)."""
+
+    @property
+    @abc.abstractmethod
+    def count(self):
+        """Number of channels ``N``."""
+
+    @property
+    @abc.abstractmethod
+    def circuit(self):
+        """Valves and tubing as :class:`~.pneumatics.PlantParameters`, for the loop's model."""
+
+    @abc.abstractmethod
+    def read_pressure_pa(self):
+        """Absolute cushion pressures (N,) [Pa]; NaN where a sensor gives no reading."""
+
+    @abc.abstractmethod
+    def read_supply_pa(self):
+        """Absolute supply pressures (N,) [Pa]; NaN where a sensor gives no reading."""
+
+    @abc.abstractmethod
+    def write_valves(self, fill_opening, vent_opening):
+        """Set the fill and vent valve openings (N,), each in [0, 1]."""
+
+    def advance(self, dt_s):
+        """Let ``dt_s`` seconds pass (simulated drivers only)."""
+        raise NotImplementedError(f'{type(self).__name__} runs in real time')
+
+    def close(self):
+        """Shut every valve: what a driver does when its owner stops."""
+        self.write_valves(np.zeros(self.count), np.zeros(self.count))
+
+
+class SimulatedCushions(CushionDriver):
+    """:class:`CushionDriver` over a :class:`~flectofold_model.actuation.plant.PneumaticPlant`.
+
+    The valves hold their last written openings while :meth:`advance` integrates the plant.
+    """
+
+    simulated = True
+
+    def __init__(self, plant):
+        if not isinstance(plant, PneumaticPlant):
+            raise TypeError(f'plant must be a PneumaticPlant, got {type(plant).__name__}')
+        self.plant = plant
+        self._fill = np.zeros(plant.count)
+        self._vent = np.zeros(plant.count)
+
+    @property
+    def count(self):
+        return self.plant.count
+
+    @property
+    def circuit(self):
+        return self.plant.parameters
+
+    def read_pressure_pa(self):
+        return self.plant.read_sensor()
+
+    def read_supply_pa(self):
+        return self.plant.read_supply_sensor()
+
+    def write_valves(self, fill_opening, vent_opening):
+        fill = _openings('fill_opening', fill_opening, self.count)
+        vent = _openings('vent_opening', vent_opening, self.count)
+        self._fill, self._vent = fill, vent
+
+    def advance(self, dt_s):
+        self.plant.step(dt_s, self._fill, self._vent)
+
+    @property
+    def free_air_used_m3(self):
+        """Air each channel drew from the supply, at ANR conditions (N,) [m^3]."""
+        return self.plant.free_air_used_m3
+
+
+def _openings(name, value, count):
+    array = np.broadcast_to(real_array(name, value), (count,)).astype(np.float64)
+    return in_range(name, array, 0.0, 1.0)

@@ -1,0 +1,458 @@
+"""The pressure loops of the panels one process hosts, run against a cushion driver.
+
+:class:`PanelLoops` holds each panel's closure setpoint, one vectorised
+:class:`~.pressure_loop.PressureController` and a :class:`~.hardware.CushionDriver`;
+:meth:`PanelLoops.advance_to` runs the loop up to a clock reading. Against a simulated driver
+it runs whole control periods and advances the simulation by each, catching up however far
+the clock jumped, so a sped-up or stalled ROS clock changes nothing in the physics; against
+real hardware it runs one period per call with the time that actually passed.
+
+Each panel's node works through its :class:`LoopRow` (:meth:`PanelLoops.row`): it sets its
+setpoint, asks for states at its publish period, reads the states kept since the last one it
+took and its feedback. Every row operation costs the same whatever the number of panels and
+however long the loop has run.
+"""
+
+from collections import deque
+import dataclasses
+from dataclasses import dataclass
+from itertools import islice
+import math
+
+import numpy as np
+
+from flectofold_model._validate import in_range, real_array, real_scalar
+from flectofold_model.actuation import actuated_like, ActuationModel, PneumaticPlant
+from flectofold_model.actuation.circuit import DEMONSTRATOR_PLANT
+from flectofold_model.actuation.cushion_map import CushionMap
+from flectofold_model.control.decimation import PublishDecimator
+from flectofold_model.control.hardware import CushionDriver, SimulatedCushions
+from flectofold_model.control.pressure_loop import ControllerParameters, PressureController
+
+#: States a loop keeps for its rows: rows that take them at least this often lose none.
+SAMPLE_HISTORY = 4096
+
+
+@dataclass(frozen=True)
+class LoopAdvance:
+    """What one :meth:`PanelLoops.advance_to` did."""
+
+    periods: int
+    """Control periods run."""
+    skipped_s: float
+    """Clock time not simulated because the jump exceeded the catch-up limit [s]."""
+
+
+@dataclass(frozen=True)
+class LoopSample:
+    """Every panel's feedback at one instant of the loop's clock."""
+
+    sequence: int
+    """Counts up by one per sample, also across restarts."""
+    time_s: float
+    """Clock reading the state belongs to [s]."""
+    closure: np.ndarray
+    fold_angle_rad: np.ndarray
+    measured_pa: np.ndarray
+
+
+@dataclass(frozen=True)
+class RowSample:
+    """One panel's feedback at one instant of the loop's clock."""
+
+    sequence: int
+    time_s: float
+    closure: float
+    fold_angle_rad: float
+    measured_pa: float
+    """Absolute cushion pressure as measured [Pa]; NaN while the sensor gives no reading."""
+
+
+class PanelLoops:
+    """Closure setpoints in, valve openings out, for the ``N`` panels of one actuation model.
+
+    Parameters
+    ----------
+    model : ActuationModel
+        The panels' static actuation (one row per driver channel).
+    driver : CushionDriver
+        Valves and sensors, ``driver.count == len(model)``.
+    control_period_s : float
+        Period of the loop [s], in (0, 1].
+    parameters : ControllerParameters
+        Gains and limits; ``time_constant_s`` must be at least twice the period.
+    max_catch_up_s : float
+        Longest clock jump a simulated driver is integrated through [s]; the rest is skipped
+        (the plant holds) and reported, so that a clock leaping hours ahead cannot stall
+        the process.
+    quiet_period_s : float, optional
+        Simulated drivers only: while every panel rests (reference at target, pressure
+        inside ``hold_band_pa`` so the valves are shut, setpoints unchanged) and the clock is
+        far enough ahead, the loop runs one period of up to this length [s] instead of many
+        short ones; the plant is integrated just as exactly and the fault monitors still
+        run once per long period. This is what lets a facade day run hundreds of times
+        faster than real time. ``None`` (default) always runs ``control_period_s``.
+    cushion_map : CushionMap, optional
+        The tabulated map of ``model``; built from it when not given.
+    """
+
+    def __init__(self, model, driver, control_period_s=0.1, parameters=ControllerParameters(),
+                 max_catch_up_s=3600.0, quiet_period_s=None, cushion_map=None):
+        if not isinstance(model, ActuationModel):
+            raise TypeError(f'model must be an ActuationModel, got {type(model).__name__}')
+        if not isinstance(driver, CushionDriver):
+            raise TypeError(f'driver must be a CushionDriver, got {type(driver).__name__}')
+        if driver.count != len(model):
+            raise ValueError(f'the driver has {driver.count} channels for {len(model)} panels')
+        self.period_s = _positive('control_period_s', control_period_s, 1.0)
+        if parameters.time_constant_s < 2.0 * self.period_s:
+            raise ValueError(
+                f'time_constant_s={parameters.time_constant_s:g} s is too short for a '
+                f'{self.period_s:g} s control period: give at least twice the period')
+        self.max_catch_up_s = _positive('max_catch_up_s', max_catch_up_s, math.inf)
+        self.quiet_periods = 1 if quiet_period_s is None else max(1, math.floor(
+            _positive('quiet_period_s', quiet_period_s, 60.0) / self.period_s + 1e-9))
+        self.quiet_periods_run = 0
+        self.model = model
+        self.map = CushionMap(model) if cushion_map is None else cushion_map
+        self.driver = driver
+        self.controller = PressureController(self.map, driver.circuit, parameters)
+        self._setpoint = np.zeros(len(model))
+        self.measured_pa = np.full(len(model), np.nan)
+        self._rested_setpoint = None
+        self.time_s = None
+        self._fold_angle_table = _fold_angle_table(model, self.map.closures)
+        self._feedback = None
+        self._sample_periods = {}
+        self._sampler = None
+        self.samples = deque(maxlen=SAMPLE_HISTORY)
+        self._sequence = 0
+
+    def __len__(self):
+        return self._setpoint.shape[0]
+
+    def row(self, index):
+        """Return the :class:`LoopRow` of panel ``index``: one panel's handle on these loops."""
+        if isinstance(index, bool) or not isinstance(index, (int, np.integer)) or \
+                not 0 <= index < len(self):
+            raise ValueError(f'row index must be an integer in [0, {len(self) - 1}], '
+                             f'got {index!r}')
+        return LoopRow(self, int(index))
+
+    @property
+    def setpoint(self):
+        """Closure setpoints being tracked (N,), read-only; set them with :meth:`set_setpoints`."""
+        view = self._setpoint.view()
+        view.flags.writeable = False
+        return view
+
+    def set_setpoints(self, closure, panels=slice(None)):
+        """Track closures in [0, 1] (scalar or one per selected panel) from the next period."""
+        closure = in_range('closure', real_array('closure', closure), 0.0, 1.0)
+        self._setpoint[panels] = closure
+
+    def set_safe_action(self, action, panels=None):
+        """VENT (default) or HOLD for panels with a latched circuit fault."""
+        self.controller.set_safe_action(action, panels)
+
+    def advance_to(self, now_s):
+        """Run the loop up to the clock reading ``now_s`` [s]; repeated readings do nothing.
+
+        The first call only starts the clock. A clock that goes backwards (a replayed bag
+        looping) restarts it there.
+        """
+        now_s = real_scalar('now_s', now_s)
+        if self.time_s is None or now_s < self.time_s:
+            self.time_s = now_s
+            if self._sampler is not None:
+                self._sampler.restart()
+            return LoopAdvance(0, 0.0)
+        if not self.driver.simulated:
+            dt = now_s - self.time_s
+            if dt < 0.5 * self.period_s:
+                return LoopAdvance(0, 0.0)
+            self._period(min(dt, 5.0 * self.period_s))
+            self.time_s = now_s
+            self._sample(now_s)
+            return LoopAdvance(1, 0.0)
+        periods = math.floor((now_s - self.time_s) / self.period_s + 1e-9)
+        limit = math.floor(self.max_catch_up_s / self.period_s)
+        skipped = max(0, periods - limit) * self.period_s
+        remaining, run = min(periods, limit), 0
+        clock_s = self.time_s
+        while remaining:
+            span = min(self.quiet_periods, remaining) if self._resting() else 1
+            # the state a quiet span holds: computed only for one
+            held = (self._current_feedback(), self.measured_pa) if span > 1 else None
+            command = self._period(span * self.period_s)
+            if span > 1 and (np.any(command.fill_opening) or np.any(command.vent_opening)):
+                span = 1  # woke up: these openings hold for one short period only
+            self.quiet_periods_run += span > 1
+            self.driver.advance(span * self.period_s)
+            remaining -= span
+            run += 1
+            clock_s += span * self.period_s
+            if span > 1:
+                self._hold_samples(clock_s, *held)
+            self._sample(clock_s)
+        self.time_s += periods * self.period_s
+        if skipped and self._sampler is not None:
+            # The plant held through the skipped time: its state, now, starts a new grid.
+            self._sampler.restart()
+            self._sample(self.time_s)
+        return LoopAdvance(run, skipped)
+
+    # -- samples ---------------------------------------------------------------------------
+
+    def request_sample_period(self, row, period_s):
+        """Keep states at least every ``period_s`` [s] of the loop's clock for ``row``.
+
+        The loop keeps them at the shortest period any row asked for; each row then picks
+        its own from those (a :class:`~.decimation.PublishDecimator`).
+        """
+        period_s = real_scalar('period_s', period_s)
+        if period_s <= 0.0:
+            raise ValueError(f'period_s must be positive, got {period_s:g} s')
+        self._sample_periods[row] = period_s
+        shortest = min(self._sample_periods.values())
+        if self._sampler is None or shortest != self._sampler.period_s:
+            self._sampler = PublishDecimator(shortest, slack_s=0.5 * self.period_s)
+
+    def _sample(self, clock_s):
+        """Keep the feedback when the sampler says so, at the loop clock's own time.
+
+        A loop that catches up a long clock jump in one call thereby still leaves its states
+        at their own times, for nodes to publish with the right stamps.
+        """
+        if self._sampler is None or not self._sampler.due(clock_s):
+            return
+        self._keep(clock_s, self._current_feedback(), self.measured_pa)
+
+    def _hold_samples(self, end_s, feedback, measured_pa):
+        """Keep the states due inside a quiet span that ended at ``end_s``, as last measured.
+
+        A quiet span (every panel resting, valves shut) reads the sensors once, at its start:
+        a state due inside it is that reading, held (a sample and hold), so that the states
+        still come at their rate.
+        """
+        sampler = self._sampler
+        while sampler is not None and sampler.next_due_s is not None and \
+                sampler.next_due_s < end_s - sampler.slack_s:
+            due_s = sampler.next_due_s
+            sampler.due(due_s)
+            self._keep(due_s, feedback, measured_pa)
+
+    def _keep(self, time_s, feedback, measured_pa):
+        self._sequence += 1
+        closure, fold_angle = feedback
+        self.samples.append(LoopSample(self._sequence, time_s, closure, fold_angle,
+                                       measured_pa.copy()))
+
+    def samples_since(self, sequence):
+        """Return the kept :class:`LoopSample` objects after ``sequence``, oldest first.
+
+        Costs the number of samples returned, not the number kept: sequences count up by one,
+        so the newest ``last - sequence`` samples are the ones wanted.
+        """
+        if not self.samples or self.samples[-1].sequence <= sequence:
+            return []
+        count = min(self.samples[-1].sequence - sequence, len(self.samples))
+        return list(islice(reversed(self.samples), count))[::-1]
+
+    # -- the loop --------------------------------------------------------------------------
+
+    def _resting(self):
+        """Every panel at rest in its hold band (valves shut), setpoints unchanged."""
+        controller = self.controller
+        last = controller.last_command
+        return (self.quiet_periods > 1 and controller.parameters.hold_band_pa > 0.0
+                and np.array_equal(self._setpoint, self._rested_setpoint)
+                and not np.any(last.fill_opening) and not np.any(last.vent_opening)
+                and np.array_equal(controller.reference_gauge_pa, controller.target_gauge_pa))
+
+    def _period(self, dt_s):
+        self._rested_setpoint = self._setpoint.copy()
+        self.measured_pa = self.driver.read_pressure_pa()
+        command = self.controller.step(dt_s, self._setpoint, self.measured_pa,
+                                       self.driver.read_supply_pa())
+        self.driver.write_valves(command.fill_opening, command.vent_opening)
+        self._feedback = None
+        return command
+
+    # -- feedback --------------------------------------------------------------------------
+
+    def _current_feedback(self):
+        """Closure and fold angle (N,) of the last period, computed once per period."""
+        if self._feedback is None:
+            closure = self.map.closure(np.maximum(self.controller.filtered_gauge_pa, 0.0))
+            table = self._fold_angle_table
+            position = closure * (table.shape[1] - 1)
+            lower = np.minimum(position.astype(np.intp), table.shape[1] - 2)
+            rows = np.arange(len(self))
+            low, high = table[rows, lower], table[rows, lower + 1]
+            self._feedback = (closure, low + (position - lower) * (high - low))
+        return self._feedback
+
+    @property
+    def gauge_pa(self):
+        """The loop's filtered cushion pressure (N,) [Pa gauge]."""
+        return self.controller.filtered_gauge_pa.copy()
+
+    @property
+    def closure(self):
+        """Closure (N,) the static map gives for the filtered measured pressure."""
+        return self._current_feedback()[0].copy()
+
+    @property
+    def fold_angle_rad(self):
+        """Flap fold angle at the crease apex (N,) [rad], from :attr:`closure`."""
+        return self._current_feedback()[1].copy()
+
+    @property
+    def fault(self):
+        """Latched circuit fault of each panel (N,), :class:`~.pressure_loop.Fault` objects."""
+        return self.controller.fault.copy()
+
+    def reset_faults(self, panels=None):
+        """Clear latched circuit faults; see :meth:`PressureController.reset_faults`."""
+        self.controller.reset_faults(panels)
+
+    @property
+    def free_air_used_nl(self):
+        """Air drawn from the supply per panel [NL], where the driver measures it, else NaN."""
+        used = getattr(self.driver, 'free_air_used_m3', None)
+        return np.full(len(self), np.nan) if used is None else used * 1e3
+
+    def close(self):
+        """Shut the valves: the panels keep their air (a held position) until vented."""
+        self.driver.close()
+
+
+class LoopRow:
+    """One panel's handle on shared :class:`PanelLoops`: all its node does with them."""
+
+    def __init__(self, loops, index):
+        self.loops = loops
+        self.index = index
+
+    def set_setpoint(self, closure):
+        """Track ``closure`` in [0, 1] from the next period."""
+        self.loops.set_setpoints(closure, self.index)
+
+    @property
+    def setpoint(self):
+        """The closure being tracked."""
+        return float(self.loops.setpoint[self.index])
+
+    def request_sample_period(self, period_s):
+        """Have the loops keep states at least every ``period_s`` [s] for this row."""
+        self.loops.request_sample_period(self.index, period_s)
+
+    def samples_since(self, sequence):
+        """Return this panel's :class:`RowSample` of every state kept after ``sequence``."""
+        i = self.index
+        return [RowSample(s.sequence, s.time_s, float(s.closure[i]), float(s.fold_angle_rad[i]),
+                          float(s.measured_pa[i])) for s in self.loops.samples_since(sequence)]
+
+    @property
+    def closure(self):
+        """Closure of the last period (see :attr:`PanelLoops.closure`)."""
+        return float(self.loops._current_feedback()[0][self.index])
+
+    @property
+    def fold_angle_rad(self):
+        """Apex fold angle of the last period [rad]."""
+        return float(self.loops._current_feedback()[1][self.index])
+
+    @property
+    def gauge_pa(self):
+        """Filtered cushion pressure [Pa gauge]."""
+        return float(self.loops.controller.filtered_gauge_pa[self.index])
+
+    @property
+    def target_gauge_pa(self):
+        """The loop's pressure target [Pa gauge]."""
+        return float(self.loops.controller.target_gauge_pa[self.index])
+
+    @property
+    def limited_by_supply(self):
+        """Whether a weak supply holds the target below what the setpoint needs."""
+        return bool(self.loops.controller.limited_by_supply[self.index])
+
+    @property
+    def fault(self):
+        """The latched circuit :class:`~.pressure_loop.Fault`."""
+        return self.loops.controller.fault[self.index]
+
+    def reset_faults(self):
+        """Clear this panel's latched circuit fault."""
+        self.loops.reset_faults([self.index])
+
+    def set_safe_action(self, action):
+        """VENT or HOLD on a latched circuit fault."""
+        self.loops.set_safe_action(action, [self.index])
+
+    @property
+    def free_air_used_nl(self):
+        """Air drawn from the supply since start [NL], NaN where the driver does not measure it."""
+        return float(self.loops.free_air_used_nl[self.index])
+
+    @property
+    def time_s(self):
+        """Clock time the loops have run up to [s]; None before the first reading."""
+        return self.loops.time_s
+
+    @property
+    def sensor_noise_pa(self):
+        """Standard deviation of the cushion sensor's noise [Pa]."""
+        return self.loops.driver.circuit.sensor_noise_pa
+
+
+def _positive(name, value, largest):
+    value = real_scalar(name, value)
+    if not 0.0 < value <= largest:
+        raise ValueError(f'{name} must lie in (0, {largest:g}], got {value:g}')
+    return value
+
+
+def _fold_angle_table(model, closures):
+    """Apex fold angle (N, S) at the static map's closure samples."""
+    return np.stack([model.fold.state_from_closure(c).apex_fold_angle_rad for c in closures],
+                    axis=1)
+
+
+def facade_loops(facade, panel_ids, control_period_s=0.1, parameters=ControllerParameters(),
+                 circuit=DEMONSTRATOR_PLANT, seed=0, quiet_period_s=None):
+    """Build :class:`PanelLoops` for some panels of a facade on one simulated circuit.
+
+    Each panel is actuated like the demonstrator module (see
+    :func:`~flectofold_model.actuation.statics.actuated_like`); ``panel_ids`` must name
+    panels of ``facade`` (``ValueError`` lists what is there otherwise).
+    """
+    indices = panel_indices(facade, panel_ids)
+    if quiet_period_s is not None and circuit.max_quiet_step_s < quiet_period_s:
+        # valves shut, only the healthy leak moves the pressure: one sub-step is exact enough
+        circuit = dataclasses.replace(circuit, max_quiet_step_s=quiet_period_s)
+    model = ActuationModel([actuated_like(facade.panels[i]) for i in indices])
+    cushion_map = CushionMap(model)
+    driver = SimulatedCushions(PneumaticPlant(circuit, cushion_map, len(indices), seed=seed,
+                                              adaptive_step=True))
+    return PanelLoops(model, driver, control_period_s, parameters,
+                      quiet_period_s=quiet_period_s, cushion_map=cushion_map)
+
+
+def panel_indices(facade, panel_ids):
+    """Positions of ``panel_ids`` in ``facade.panel_ids``; unknown or repeated ids raise."""
+    panel_ids = list(panel_ids)
+    if not panel_ids:
+        raise ValueError('no panel ids given')
+    known = set(facade.panel_ids)
+    unknown = [p for p in panel_ids if p not in known]
+    if unknown:
+        raise ValueError(f'unknown panel id(s) {", ".join(map(str, unknown))} in facade '
+                         f'{facade.name!r}, which has {facade.panel_ids[0]} .. '
+                         f'{facade.panel_ids[-1]}')
+    if len(set(panel_ids)) != len(panel_ids):
+        raise ValueError('a panel id is given twice')
+    position = {panel_id: i for i, panel_id in enumerate(facade.panel_ids)}
+    return [position[p] for p in panel_ids]

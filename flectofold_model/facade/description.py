@@ -1,0 +1,301 @@
+"""Facade descriptions: YAML in, validated panels with frames and pre-folds out.
+
+The schema is documented, with an example per surface type, in ``msg_docs/facade.md``. Loading
+checks everything before anything starts: unknown keys, wrong types, non-finite numbers and
+impossible sizes raise :class:`FacadeError` naming the key path (``grid.rows``) and the reason.
+YAML is read with ``yaml.safe_load`` only.
+
+Pre-fold. A Flectofold panel folds the right way only if it starts with some fold toward
+closing (``min_prefold_rad``). On a curved facade the patch supplies part of it: bending the
+mid-rib along a convex direction ``kappa_x`` sags it by ``kappa_x L**2 / 8``, which the curved
+crease turns into ``2 atan(kappa_x L**2 / (8 h_c))`` of fold (the reflection law), and a concave
+cross-curvature ``kappa_y < 0`` tilts the flaps up by about ``-kappa_y W / 4``. Anticlastic
+patches (convex along the mid-rib, concave across) supply both; a plane supplies none; a dome
+gives with one hand and takes with the other. Where the surface gives too little, the paper's
+adjustment is applied: choose the mid-rib direction that is more convex (``midrib_along: auto``)
+and mould the missing pre-fold into the panel, up to ``max_moulded_prefold_rad``. Patches that
+would still fold the wrong way are reported and left out of the array.
+"""
+
+from dataclasses import dataclass, field, fields
+import math
+from pathlib import Path
+
+import numpy as np
+import yaml
+
+from flectofold_model.environment.sun import Site
+from flectofold_model.facade import surfaces
+from flectofold_model.kinematics.panel import fold_line_sag, PanelGeometry
+
+DEFAULT_FACADE = Path(__file__).with_name('data') / 'demonstrator_6x6.yaml'
+
+
+class FacadeError(ValueError):
+    """A facade description that cannot be built; the message names the key and the reason."""
+
+
+_SCHEMA = {
+    'name': str,
+    'site': {'latitude_deg': float, 'longitude_deg': float, 'elevation_m': float,
+             'utc_offset_h': float},
+    'facade': {'azimuth_deg': float},
+    'surface': {'type': str, 'width_m': float, 'height_m': float, 'radius_m': float,
+                'semi_axis_u_m': float, 'semi_axis_v_m': float, 'depth_m': float,
+                'curvature_u_per_m': float, 'curvature_v_per_m': float, 'path': str},
+    'grid': {'rows': int, 'columns': int, 'gap_m': float, 'midrib_along': str},
+    'panel': {'fold_radius_m': float, 'midrib_end_width_m': float, 'hinge_width_m': float,
+              'min_prefold_rad': float, 'max_moulded_prefold_rad': float,
+              'closed_clearance_m': float},
+    'overrides': dict,
+    'control': dict,
+}
+_SURFACE_KEYS = {'plane': (), 'cylinder': ('radius_m',),
+                 'dome': ('semi_axis_u_m', 'semi_axis_v_m', 'depth_m'),
+                 'saddle': ('curvature_u_per_m', 'curvature_v_per_m'), 'obj': ('path',)}
+_PANEL_DEFAULTS = {'min_prefold_rad': math.radians(5.0),
+                   'max_moulded_prefold_rad': math.radians(15.0), 'closed_clearance_m': 0.02}
+_CONTROL_KEYS = {'period_s', 'shading_target', 'look_ahead_s'}
+
+
+@dataclass(frozen=True)
+class Facade:
+    """A built facade: its site, its panels and where each one sits."""
+
+    name: str
+    site: Site
+    utc_offset_h: float
+    azimuth_deg: float
+    panel_ids: list
+    """``r<row>c<column>`` per built panel, rows counted up from the bottom."""
+    panels: list
+    """:class:`~flectofold_model.kinematics.panel.PanelGeometry` per built panel."""
+    origin_m: np.ndarray
+    """(N, 3) panel origins in the facade frame [m]."""
+    rotation: np.ndarray
+    """(N, 3, 3) panel frames in the facade frame (columns x, y, z)."""
+    surface_prefold_rad: np.ndarray
+    """Pre-fold each built patch's curvature supplies [rad]."""
+    moulded_prefold_rad: np.ndarray
+    """Pre-fold moulded in where the surface supplies too little [rad]."""
+    gaussian_sign: np.ndarray
+    excluded: list
+    """``(panel id, reason)`` of patches that cannot be made to fold the right way."""
+    control: dict = field(default_factory=dict)
+
+    def __len__(self):
+        return len(self.panels)
+
+    @property
+    def facade_to_enu(self):
+        """Rotation (3, 3) from the facade frame to the site's ENU frame."""
+        azimuth = math.radians(self.azimuth_deg)
+        outward = np.array([math.sin(azimuth), math.cos(azimuth), 0.0])
+        up = np.array([0.0, 0.0, 1.0])
+        return np.stack([np.cross(up, outward), up, outward], axis=-1)
+
+    @property
+    def panel_to_enu(self):
+        """(N, 3, 3) rotations from each panel frame to ENU."""
+        return np.einsum('ij,njk->nik', self.facade_to_enu, self.rotation)
+
+    def sun_in_panel_frames(self, sun_enu):
+        """Sun directions (..., 3) in ENU expressed in every panel frame: (..., N, 3)."""
+        return np.einsum('nji,...j->...ni', self.panel_to_enu, np.asarray(sun_enu, dtype=float))
+
+    def report(self):
+        """Human-readable lines: surface pre-fold, moulded pre-fold and exclusions."""
+        lines = [f'{self.name}: {len(self)} panels built, {len(self.excluded)} left out']
+        for index, panel_id in enumerate(self.panel_ids):
+            lines.append(
+                f'  {panel_id}: {self.panels[index].length_m:.3f} x '
+                f'{self.panels[index].width_m:.3f} m, K sign {self.gaussian_sign[index]:+d}, '
+                f'surface pre-fold {math.degrees(self.surface_prefold_rad[index]):+.1f} deg, '
+                f'moulded {math.degrees(self.moulded_prefold_rad[index]):.1f} deg')
+        lines.extend(f'  {panel_id}: left out: {reason}' for panel_id, reason in self.excluded)
+        return lines
+
+
+def load_facade(path=DEFAULT_FACADE):
+    """Read, validate and build a facade description from a YAML file."""
+    path = Path(path)
+    try:
+        text = path.read_text()
+    except OSError as error:
+        raise FacadeError(f'{path}: cannot read the facade description: {error}') from None
+    return build_facade(text, base_directory=path.parent)
+
+
+def build_facade(text, base_directory='.'):
+    """Validate and build a facade from YAML text (OBJ paths resolve from base_directory)."""
+    try:
+        document = yaml.safe_load(text)
+    except yaml.YAMLError as error:
+        raise FacadeError(f'malformed YAML: {error}') from None
+    if not isinstance(document, dict):
+        raise FacadeError('a facade description is a mapping of sections')
+    _check(document, _SCHEMA, '')
+    for section in ('site', 'facade', 'surface', 'grid', 'panel'):
+        if section not in document:
+            raise FacadeError(f'{section}: missing section')
+    site_doc = document['site']
+    site = _build('site', lambda: Site(latitude_deg=_need(site_doc, 'site', 'latitude_deg'),
+                                       longitude_deg=_need(site_doc, 'site', 'longitude_deg'),
+                                       elevation_m=site_doc.get('elevation_m', 0.0)))
+    utc_offset = site_doc.get('utc_offset_h', 0.0)
+    if not -12 <= utc_offset <= 14:
+        raise FacadeError(f'site.utc_offset_h: must lie in [-12, 14] h, got {utc_offset:g}')
+    azimuth = _need(document['facade'], 'facade', 'azimuth_deg')
+    if not 0 <= azimuth < 360:
+        raise FacadeError(f'facade.azimuth_deg: must lie in [0, 360), got {azimuth:g}')
+    patches = _patches(document['surface'], document['grid'], Path(base_directory))
+    control = _control(document.get('control', {}))
+    panels, ids, kept, surface_prefold, moulded, excluded = _panels(
+        patches, document['panel'], document['grid'], document.get('overrides', {}))
+    if not panels:
+        raise FacadeError('no patch can carry a panel that folds the right way: '
+                          + '; '.join(f'{i}: {r}' for i, r in excluded[:5]))
+    return Facade(name=document.get('name', 'facade'), site=site, utc_offset_h=utc_offset,
+                  azimuth_deg=azimuth, panel_ids=ids, panels=panels,
+                  origin_m=patches.origin_m[kept], rotation=patches.rotation[kept],
+                  surface_prefold_rad=np.array(surface_prefold),
+                  moulded_prefold_rad=np.array(moulded),
+                  gaussian_sign=patches.gaussian_sign[kept], excluded=excluded, control=control)
+
+
+def _check(document, schema, prefix):
+    for key, value in document.items():
+        where = f'{prefix}{key}'
+        if key not in schema:
+            known = ', '.join(sorted(schema))
+            raise FacadeError(f'{where}: unknown key (known here: {known})')
+        expected = schema[key]
+        if isinstance(expected, dict):
+            if not isinstance(value, dict):
+                raise FacadeError(f'{where}: must be a mapping, got {type(value).__name__}')
+            _check(value, expected, f'{where}.')
+        else:
+            _check_type(where, value, expected)
+
+
+def _check_type(where, value, expected):
+    if expected is float:
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise FacadeError(f'{where}: must be a number, got {value!r}')
+        if not math.isfinite(value):
+            raise FacadeError(f'{where}: must be finite, got {value!r}')
+    elif expected is int:
+        if isinstance(value, bool) or not isinstance(value, int):
+            raise FacadeError(f'{where}: must be a whole number, got {value!r}')
+    elif not isinstance(value, expected):
+        raise FacadeError(f'{where}: must be a {expected.__name__}, got {value!r}')
+
+
+def _need(section, name, key):
+    if key not in section:
+        raise FacadeError(f'{name}.{key}: missing')
+    return section[key]
+
+
+def _build(where, make):
+    try:
+        return make()
+    except (TypeError, ValueError) as error:
+        raise FacadeError(f'{where}: {error}') from None
+
+
+def _patches(surface, grid, base_directory):
+    kind = _need(surface, 'surface', 'type')
+    if kind not in _SURFACE_KEYS:
+        raise FacadeError(f'surface.type: must be one of {", ".join(_SURFACE_KEYS)}, got {kind!r}')
+    allowed = {'type', 'width_m', 'height_m', *_SURFACE_KEYS[kind]}
+    for key in surface:
+        if key not in allowed:
+            raise FacadeError(f'surface.{key}: not used by a {kind} surface')
+    midrib = grid.get('midrib_along', 'v')
+    if midrib not in ('u', 'v', 'auto'):
+        raise FacadeError(f"grid.midrib_along: must be 'u', 'v' or 'auto', got {midrib!r}")
+    if kind == 'obj':
+        path = base_directory / _need(surface, 'surface', 'path')
+        vertices, faces = _build('surface.path', lambda: surfaces.read_obj_quads(path))
+        return _build('surface', lambda: surfaces.obj_patches(vertices, faces, midrib))
+    width, height = (_need(surface, 'surface', key) for key in ('width_m', 'height_m'))
+    for key, value in (('width_m', width), ('height_m', height)):
+        if value <= 0:
+            raise FacadeError(f'surface.{key}: must be positive, got {value:g} m')
+    arguments = [_need(surface, 'surface', key) for key in _SURFACE_KEYS[kind]]
+    maker = getattr(surfaces, kind)
+    shape = _build('surface', lambda: maker(width, height, *arguments))
+    rows, columns = (_need(grid, 'grid', key) for key in ('rows', 'columns'))
+    for key, value in (('rows', rows), ('columns', columns)):
+        if not 1 <= value <= 1000:
+            raise FacadeError(f'grid.{key}: must lie in [1, 1000], got {value}')
+    return shape.tessellate(rows, columns, midrib)
+
+
+def _control(control):
+    from flectofold_model.scheduling.scheduler import SchedulerParameters
+    known = _CONTROL_KEYS | {f.name for f in fields(SchedulerParameters)}
+    for key, value in control.items():
+        if key not in known:
+            raise FacadeError(f'control.{key}: unknown key (known: {", ".join(sorted(known))})')
+        _check_type(f'control.{key}', value, float)
+    scheduler = {k: v for k, v in control.items() if k not in _CONTROL_KEYS}
+    _build('control', lambda: SchedulerParameters(**scheduler))
+    target = control.get('shading_target', 0.9)
+    if not 0 <= target <= 1:
+        raise FacadeError(f'control.shading_target: must lie in [0, 1], got {target:g}')
+    for key in ('period_s', 'look_ahead_s'):
+        if key in control and control[key] <= 0:
+            raise FacadeError(f'control.{key}: must be positive, got {control[key]:g} s')
+    return dict(control)
+
+
+def _panels(patches, template, grid, overrides):
+    gap = grid.get('gap_m', 0.0)
+    if gap < 0:
+        raise FacadeError(f'grid.gap_m: must not be negative, got {gap:g} m')
+    ids = [f'r{r:02d}c{c:02d}' for r, c in zip(patches.row, patches.column)]
+    for panel_id, settings in overrides.items():
+        if panel_id not in ids:
+            raise FacadeError(f'overrides.{panel_id}: no such panel (ids look like r00c03)')
+        if not isinstance(settings, dict):
+            raise FacadeError(f'overrides.{panel_id}: must be a mapping')
+        _check(settings, _SCHEMA['panel'], f'overrides.{panel_id}.')
+    panels, built_ids, kept, surface_prefold, moulded, excluded = [], [], [], [], [], []
+    for index, panel_id in enumerate(ids):
+        settings = {**_PANEL_DEFAULTS, **template, **overrides.get(panel_id, {})}
+        where = f'overrides.{panel_id}' if panel_id in overrides else 'panel'
+        for key in ('fold_radius_m', 'midrib_end_width_m', 'hinge_width_m'):
+            if key not in settings:
+                raise FacadeError(f'panel.{key}: missing')
+        length = patches.length_m[index] - gap
+        width = patches.width_m[index] - gap
+        supplied = _surface_prefold(patches, index, length, width, settings)
+        missing = settings['min_prefold_rad'] - supplied
+        mould = min(max(missing, 0.0), settings['max_moulded_prefold_rad'])
+        prefold = supplied + mould
+        if prefold < settings['min_prefold_rad'] - 1e-12:
+            excluded.append((panel_id, f'the surface folds it {math.degrees(supplied):+.1f} deg '
+                                       f'and the mould can add only '
+                                       f'{math.degrees(mould):.1f} deg'))
+            continue
+        panel = _build(f'{where} ({panel_id})', lambda: PanelGeometry.with_lens_midrib(
+            length_m=length, width_m=width, fold_radius_m=settings['fold_radius_m'],
+            end_width_m=settings['midrib_end_width_m'], hinge_width_m=settings['hinge_width_m'],
+            prefold_rad=prefold, closed_clearance_m=settings['closed_clearance_m']))
+        panels.append(panel)
+        built_ids.append(panel_id)
+        kept.append(index)
+        surface_prefold.append(supplied)
+        moulded.append(mould)
+    return panels, built_ids, np.array(kept, dtype=int), surface_prefold, moulded, excluded
+
+
+def _surface_prefold(patches, index, length, width, settings):
+    sag = fold_line_sag(settings['fold_radius_m'], length)
+    if not np.isfinite(sag) or sag <= 0:
+        raise FacadeError(f'panel.fold_radius_m: {settings["fold_radius_m"]:g} m cannot span a '
+                          f'{length:.3f} m mid-rib (it must exceed half the length)')
+    midrib_sag = patches.curvature_x_per_m[index] * length**2 / 8
+    return 2 * math.atan(midrib_sag / sag) - patches.curvature_y_per_m[index] * width / 4

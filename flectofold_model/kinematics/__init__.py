@@ -1,0 +1,18 @@
+"""Kinematics of a Flectofold panel: its description, the mid-rib elastica, the reflected flaps.
+
+- :mod:`.panel`: validated panel descriptions, one panel or a batch of many, and the presets;
+- :mod:`.elastica`: the mid-rib as a pinned Euler elastica, in closed form;
+- :mod:`.reflection`: fold planes, the crease and fold angles (the reflection method);
+- :mod:`.closure`: closure <-> fold angle <-> elastica <-> support displacement;
+- :mod:`.mesh`: folded triangle meshes of many panels at once.
+"""
+
+from flectofold_model.kinematics.closure import FoldModel, FoldState
+from flectofold_model.kinematics.mesh import DEFAULT_TOPOLOGY, fold_mesh, FoldMesh, MeshTopology
+from flectofold_model.kinematics.panel import (DEMONSTRATOR_MODULE, PanelBatch, PanelGeometry,
+                                               PROTOTYPE)
+
+__all__ = [
+    'DEFAULT_TOPOLOGY', 'DEMONSTRATOR_MODULE', 'FoldMesh', 'FoldModel', 'FoldState',
+    'MeshTopology', 'PROTOTYPE', 'PanelBatch', 'PanelGeometry', 'fold_mesh',
+]

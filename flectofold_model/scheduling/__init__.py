@@ -1,0 +1,15 @@
+"""Scheduling the array: desired closures -> commanded closures under the facade's limits.
+
+- :mod:`.scheduler`: the per-period decision under dwell, deadband, rate limit, daily cap, air
+  budget, storm latch and DNI gate (:class:`Scheduler`);
+- :mod:`.facade_schedule`: sun vector -> commanded closure per panel of a facade;
+- :mod:`.day_report`: a facade's day, what its schedule achieved, against two baselines.
+"""
+
+from flectofold_model.scheduling.day_report import DayReport, simulate_day
+from flectofold_model.scheduling.facade_schedule import FacadeSchedule
+from flectofold_model.scheduling.scheduler import (Reason, Scheduler, ScheduleResult,
+                                                   SchedulerParameters)
+
+__all__ = ['DayReport', 'FacadeSchedule', 'Reason', 'ScheduleResult', 'Scheduler',
+           'SchedulerParameters', 'simulate_day']

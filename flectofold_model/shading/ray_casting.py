@@ -1,0 +1,532 @@
+"""Direct-sun shading and view of folded panels, by ray casting against their meshes.
+
+Geometry, in the panel frame of :mod:`~flectofold_model.kinematics` (x along the mid-rib, y across,
+z out of the facade, metres). The flat panel is the cell ``|x| <= L/2, |y| <= W/2`` of the
+facade plane ``z = 0``, and the panels tessellate the facade. Behind each panel, at
+``z = -standoff_m``, lies its **footprint**: the same rectangle on the window or wall. The sun
+vector ``s`` is the unit vector toward the sun in the panel frame; direct sun reaches the
+footprint only if ``s_z > 0`` (the panel is *sunlit*; a sun within ``1e-9`` rad of the facade
+plane, :data:`SUNLIT_MIN_SZ`, counts as parallel to it).
+
+A footprint point is **blocked** when its ray toward the sun, ``p + t s`` with ``t > 0``,
+hits a folded sheet: mid-rib or flap. The **blocked fraction** is the blocked share of the
+footprint's area; with ``s_z > 0`` every footprint point receives direct sun unless blocked,
+so it is also the share of the direct sun on the footprint that the panels intercept. It is
+estimated on a fixed grid of ``samples x samples`` points, the centres of equal cells of the
+footprint, each ray tested against the triangles of the mesh by the Moller-Trumbore
+algorithm. With ``s`` fixed per panel, Moller-Trumbore's barycentric coordinates are affine in
+the ray origin, ``u = (o - v0) . (s x e2) / det`` and ``v = (o - v0) . (e1 x s) / det``, so
+their per-triangle factors are computed once (in float64) and the tests of all rays against
+all triangles become batched matrix products (in float32: positions to about a micrometre).
+A ray hits a triangle where ``u, v, 1 - u - v >= -1e-4`` (the slack closes shared edges
+against rounding); the check ``t > 0`` is not needed because every mesh point lies at
+``z >= 0``, in front of the rays' origins. Triangles seen edge-on (``|det|`` below
+``1e-12 |e1| |e2|``) cast no shadow, and triangles whose shadow's bounding box misses the
+footprint are left out of the products.
+
+**Neighbours.** With ``standoff_m > 0`` an oblique ray from the footprint leaves the panel's
+own cell before it reaches the sheet: it passes the facade through a neighbour's cell. By
+default (``tessellated=True``) every panel is taken to sit in an unbounded rectangular array
+of ``L x W`` cells of identical panels in its own fold state, and rays are tested against the
+copies of its mesh in all the cells they cross while inside the meshes' height range. Then a
+flat panel blocks all direct sun at any ``s_z > 0``, as a closed facade plane does, and
+standing flaps block grazing sun like fins. ``tessellated=False`` tests the panel's own mesh
+only: a lone panel, whose footprint takes oblique sun past its edges.
+
+A ray is followed across at most ``max_cells`` cells (counted along x plus along y) of the
+meshes' height range. Only a sun within about a degree of the facade plane needs more (the
+closed demonstrator module's flaps, 0.5 m tall, on 1 m cells: 32 cells at 0.9 deg), and
+blocked fractions are lower bounds there.
+
+Resolution and cost: the default :data:`SHADING_TOPOLOGY` (280 triangles) and 24 x 24 samples
+resolve the footprint to ``1 / 576`` and the sheet to about ``L / 10`` along the mid-rib; the
+estimate's error is at most the share of sample cells that a shadow's outline crosses, and
+in practice under 0.01. The work per panel is the sample rays times the triangles near the
+footprint in each cell crossed: one cell at normal incidence, a few in oblique sun. Panels
+are meshed 256 at a time and the products cut to a few MB, so memory stays bounded.
+"""
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from flectofold_model._validate import in_range, real_array, real_scalar
+from flectofold_model.kinematics import elastica
+from flectofold_model.kinematics.closure import FoldModel
+from flectofold_model.kinematics.mesh import fold_mesh, MeshTopology
+from flectofold_model.kinematics.panel import PanelBatch
+
+#: Mesh resolution for shading: 11 stations x (3 + 2 x 7) columns, 280 triangles per panel.
+SHADING_TOPOLOGY = MeshTopology(stations=11, midrib_columns=3, flap_columns=7)
+#: Default sample rays per side of the footprint (24 x 24 = 576 rays per panel).
+DEFAULT_SAMPLES = 24
+#: Default gap between the sheet and the window or wall behind it [m].
+DEFAULT_STANDOFF_M = 0.05
+#: Default limit on the cells a ray is followed across (see the module docstring).
+DEFAULT_MAX_CELLS = 32
+#: Default candidate closures of :func:`closure_for_shading` (read-only).
+DEFAULT_CLOSURES = np.linspace(0.0, 1.0, 21)
+DEFAULT_CLOSURES.setflags(write=False)
+
+#: Smallest ``s_z`` of a sunlit panel: a sun nearer the facade plane counts as parallel to it.
+SUNLIT_MIN_SZ = 1e-9
+#: Largest accepted deviation of a sun vector's length from 1.
+_UNIT_TOLERANCE = 1e-6
+#: Slack on the barycentric coordinates, which are evaluated in float32 (errors near 1e-6):
+#: a ray on an edge shared by two triangles hits.
+_BARYCENTRIC_SLACK = 1e-4
+#: Triangles with ``|det| <= _EDGE_ON |e1| |e2|`` are parallel to the ray.
+_EDGE_ON = 1e-12
+#: Panels whose meshes are built at once, and matrix elements per ray-casting product.
+_PANEL_CHUNK = 256
+_ELEMENT_BUDGET = 1 << 21
+
+
+@dataclass(frozen=True)
+class Shading:
+    """Direct-sun shading of the footprints of N panels; each field has shape ``(N,)``."""
+
+    blocked_fraction: np.ndarray
+    """Share of the footprint whose ray toward the sun hits a sheet, in [0, 1]; 0 if not sunlit."""
+    sunlit: np.ndarray
+    """``True`` where the sun is in front of the facade (``s_z > 1e-9``): direct sun arrives."""
+
+
+@dataclass(frozen=True)
+class ShadingChoice:
+    """Closures chosen by :func:`closure_for_shading`; each field has shape ``(N,)``."""
+
+    closure: np.ndarray
+    """Chosen closure, one of the candidates (0 open ... 1 closed)."""
+    blocked_fraction: np.ndarray
+    """Blocked fraction of the direct sun at the chosen closure (0 if not sunlit)."""
+    view_fraction: np.ndarray
+    """View fraction (openness along the facade normal) at the chosen closure."""
+    sunlit: np.ndarray
+    """``True`` where the sun is in front of the facade."""
+    meets_target: np.ndarray
+    """``blocked_fraction >= target``; always ``True`` where not sunlit (nothing to block)."""
+
+
+def blocked_fraction(batch, k, sun_panel, topology=SHADING_TOPOLOGY, samples=DEFAULT_SAMPLES,
+                     standoff_m=DEFAULT_STANDOFF_M, tessellated=True,
+                     max_cells=DEFAULT_MAX_CELLS):
+    """Share of each panel's footprint that the folded sheets keep out of the direct sun.
+
+    Vectorised over panels: all rays of a chunk of panels are tested against all their
+    triangles in batched matrix products; there is no loop over single panels.
+
+    Parameters
+    ----------
+    batch : PanelBatch
+        The N panels.
+    k : float or array-like
+        Elliptic modulus of each panel's mid-rib elastica (the fold state, e.g.
+        ``FoldModel.state_from_closure(closure).elastica_k``), a scalar or shape ``(N,)``, in
+        ``[0, elastica.K_MAX]`` [-].
+    sun_panel : array-like
+        Unit vector(s) toward the sun in the panel frame, shape ``(3,)`` (all panels) or
+        ``(N, 3)`` [-]. Lengths may deviate from 1 by at most ``1e-6``; they are normalised.
+    topology : MeshTopology, default SHADING_TOPOLOGY
+        Mesh resolution of the sheets.
+    samples : int, default 24
+        Sample rays per side of the footprint: ``samples**2`` rays per panel, at the centres of
+        equal cells.
+    standoff_m : float, default 0.05
+        Distance of the footprint (window or wall) behind the flat sheet [m], ``>= 0``.
+    tessellated : bool, default True
+        Surround each panel by copies of itself in the same fold state (an unbounded facade
+        of ``L x W`` cells); ``False`` for a lone panel.
+    max_cells : int, default 32
+        Most cells a ray is followed across within the meshes' height range (only a sun
+        within about a degree of the facade plane reaches it).
+
+    Returns
+    -------
+    Shading
+        ``blocked_fraction`` in ``[0, 1]`` (a multiple of ``1 / samples**2``; 0 where not
+        sunlit) and the ``sunlit`` mask, each of shape ``(N,)``.
+
+    Raises
+    ------
+    TypeError
+        If ``batch`` is not a :class:`PanelBatch`, ``topology`` not a :class:`MeshTopology`,
+        ``tessellated`` not a bool, or a numeric input is not made of real numbers.
+    ValueError
+        If a value is NaN or infinite, ``k`` is outside its range, a sun vector is not of unit
+        length (a zero vector included), a shape does not match N, or ``samples``,
+        ``standoff_m`` or ``max_cells`` is out of range.
+    """
+    batch, k, sun = _check_panels(batch, k, sun_panel)
+    options = _check_options(topology, samples, standoff_m, tessellated, max_cells)
+    return _shading(batch, k, sun, *options)
+
+
+def view_fraction(batch, k, topology=SHADING_TOPOLOGY, samples=DEFAULT_SAMPLES):
+    """Share of each panel's footprint that is open to view along the facade normal.
+
+    ``1 - blocked_fraction`` for a sun on the facade normal, ``s = (0, 0, 1)``: the rays run
+    straight out of the facade, so the result is the share of the footprint not under the
+    sheets' projection onto the facade plane, and depends neither on the standoff nor on the
+    neighbours (every mesh stays inside its own cell's column). 0 for a flat panel, growing
+    as the flaps stand up.
+
+    Parameters
+    ----------
+    batch : PanelBatch
+        The N panels.
+    k : float or array-like
+        Elliptic modulus of each panel's mid-rib elastica, a scalar or shape ``(N,)`` [-].
+    topology : MeshTopology, default SHADING_TOPOLOGY
+        Mesh resolution of the sheets.
+    samples : int, default 24
+        Sample rays per side of the footprint.
+
+    Returns
+    -------
+    numpy.ndarray
+        View fraction in ``[0, 1]``, shape ``(N,)`` (1 = fully open to view).
+
+    Raises
+    ------
+    TypeError, ValueError
+        As :func:`blocked_fraction`.
+    """
+    batch, k, sun = _check_panels(batch, k, (0.0, 0.0, 1.0))
+    options = _check_options(topology, samples, DEFAULT_STANDOFF_M, False, DEFAULT_MAX_CELLS)
+    return 1.0 - _shading(batch, k, sun, *options).blocked_fraction
+
+
+def closure_for_shading(fold_model, sun_panel, target_blocked, closures=DEFAULT_CLOSURES,
+                        topology=SHADING_TOPOLOGY, samples=DEFAULT_SAMPLES,
+                        standoff_m=DEFAULT_STANDOFF_M, tessellated=True,
+                        max_cells=DEFAULT_MAX_CELLS):
+    """Choose, per panel, the candidate closure with the most view that blocks enough sun.
+
+    Decision rule, per panel, over the candidate closures ``c`` with blocked fraction
+    ``b(c)`` (for the panel's sun, :func:`blocked_fraction`) and view fraction ``v(c)``
+    (:func:`view_fraction`):
+
+    1. a sunlit panel takes, among the candidates with ``b(c) >= target``, the one with the
+       largest ``v(c)``;
+    2. a panel that is not sunlit (no direct sun, ``b = 0``) takes the largest ``v(c)`` of all
+       candidates, as if its target were 0;
+    3. if no candidate reaches the target, the panel takes the largest ``b(c)``, the nearest
+       it can come.
+
+    Ties, which the sampled fractions make common (they move in steps of ``1 / samples**2``),
+    go in turn to the larger ``b(c)`` (rules 1 and 2) or the larger ``v(c)`` (rule 3), then to
+    the smaller closure: it needs less actuation, and where the sampled fractions tie near
+    the open state it is the one that truly blocks more at normal incidence (the sheets'
+    projection shrinks as the panel closes). So a target of 1 at normal incidence gives
+    closure 0, the flat sheet.
+
+    All N x C candidates are evaluated at once as one batch of N x C panel states.
+
+    Parameters
+    ----------
+    fold_model : FoldModel
+        The closure map of the N panels.
+    sun_panel : array-like
+        Unit vector(s) toward the sun in the panel frame, shape ``(3,)`` or ``(N, 3)`` [-].
+    target_blocked : float or array-like
+        Wanted blocked fraction of the direct sun, a scalar or shape ``(N,)``, in ``[0, 1]``.
+    closures : array-like, default numpy.linspace(0, 1, 21)
+        Candidate closures, a non-empty 1-D array with values in ``[0, 1]``.
+    topology, samples, standoff_m, tessellated, max_cells
+        As :func:`blocked_fraction`.
+
+    Returns
+    -------
+    ShadingChoice
+        The chosen closure, the blocked and view fractions there, the sunlit mask and whether
+        the target is met, each of shape ``(N,)``.
+
+    Raises
+    ------
+    TypeError
+        If ``fold_model`` is not a :class:`FoldModel`, or as :func:`blocked_fraction`.
+    ValueError
+        If ``target_blocked`` or a closure is NaN or outside ``[0, 1]``, a shape does not
+        match, or as :func:`blocked_fraction`.
+    """
+    if not isinstance(fold_model, FoldModel):
+        raise TypeError(f'fold_model must be a FoldModel, got {type(fold_model).__name__}')
+    count = len(fold_model)
+    sun = _unit_vectors('sun_panel', sun_panel, count)
+    target = in_range('target_blocked',
+                      _per_panel('target_blocked', target_blocked, count), 0.0, 1.0)
+    candidates = real_array('closures', closures)
+    if candidates.ndim != 1 or candidates.size == 0:
+        raise ValueError(f'closures must be a non-empty 1-D array, got shape {candidates.shape}')
+    in_range('closures', candidates, 0.0, 1.0)
+    topology, samples, standoff, tessellated, max_cells = _check_options(
+        topology, samples, standoff_m, tessellated, max_cells)
+
+    # Row n * C + c of the candidate batch is panel n at closure c.
+    size = candidates.size
+    k = np.stack([fold_model.state_from_closure(c).elastica_k for c in candidates], axis=-1)
+    batch = fold_model.batch.take(np.repeat(np.arange(count), size))
+    k = k.reshape(-1)
+    blocked = _shading(batch, k, np.repeat(sun, size, axis=0), topology, samples, standoff,
+                       tessellated, max_cells).blocked_fraction.reshape(count, size)
+    normal = np.tile([0.0, 0.0, 1.0], (count * size, 1))
+    views = 1.0 - _shading(batch, k, normal, topology, samples, standoff, False,
+                           max_cells).blocked_fraction.reshape(count, size)
+
+    sunlit = sun[:, 2] > SUNLIT_MIN_SZ
+    best = choose_candidate(candidates, blocked, views, sunlit, target)
+    rows = np.arange(count)
+    chosen_blocked = blocked[rows, best]
+    return ShadingChoice(closure=candidates[best], blocked_fraction=chosen_blocked,
+                         view_fraction=views[rows, best], sunlit=sunlit,
+                         meets_target=chosen_blocked >= np.where(sunlit, target, 0.0))
+
+
+def choose_candidate(closures, blocked, views, sunlit, target):
+    """Index (N,) of the candidate each panel takes by the rule of :func:`closure_for_shading`.
+
+    ``closures`` (C,) are the candidates; ``blocked`` and ``views`` (N, C) their blocked and
+    view fractions (for a look-ahead window, pass each candidate's worst blocked fraction over
+    the window); ``sunlit`` (N,) and ``target`` (N,) or scalar. Shared by every caller so the
+    rule lives in one place.
+    """
+    count, size = blocked.shape
+    wanted = np.where(sunlit, target, 0.0)[:, None]
+    # Interpolated fractions may miss a target they meet by a rounding error.
+    feasible = blocked >= wanted - 1e-9
+    reachable = np.any(feasible, axis=1, keepdims=True)
+    first = np.where(reachable, views, blocked)
+    second = np.where(reachable, blocked, views)
+    smaller = np.broadcast_to(-np.asarray(closures), (count, size))
+    # lexsort sorts by its last key first; the best candidate ends up last.
+    return np.lexsort((smaller, second, first, feasible), axis=-1)[:, -1]
+
+
+def _check_panels(batch, k, sun_panel):
+    if not isinstance(batch, PanelBatch):
+        raise TypeError(f'batch must be a PanelBatch, got {type(batch).__name__}')
+    count = len(batch)
+    k = in_range('k', _per_panel('k', k, count), 0.0, elastica.K_MAX)
+    return batch, k, _unit_vectors('sun_panel', sun_panel, count)
+
+
+def _check_options(topology, samples, standoff_m, tessellated, max_cells):
+    if not isinstance(topology, MeshTopology):
+        raise TypeError(f'topology must be a MeshTopology, got {type(topology).__name__}')
+    for name, value in (('samples', samples), ('max_cells', max_cells)):
+        if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
+            raise ValueError(f'{name} must be a positive integer, got {value!r}')
+    standoff = real_scalar('standoff_m', standoff_m)
+    if standoff < 0.0:
+        raise ValueError(f'standoff_m must not be negative, got {standoff:g} m')
+    if not isinstance(tessellated, (bool, np.bool_)):
+        raise TypeError(f'tessellated must be a bool, got {tessellated!r}')
+    return topology, int(samples), standoff, bool(tessellated), int(max_cells)
+
+
+def _per_panel(name, value, count):
+    array = real_array(name, value)
+    try:
+        return np.broadcast_to(array, (count,))
+    except ValueError:
+        raise ValueError(f'{name} has shape {array.shape}; expected a scalar or ({count},) '
+                         f'for {count} panels') from None
+
+
+def _unit_vectors(name, value, count):
+    array = real_array(name, value)
+    if array.shape not in ((3,), (count, 3)):
+        raise ValueError(f'{name} has shape {array.shape}; expected (3,) or ({count}, 3) for '
+                         f'{count} panels')
+    array = np.broadcast_to(array, (count, 3))
+    norm = np.linalg.norm(array, axis=-1)
+    bad = np.abs(norm - 1.0) > _UNIT_TOLERANCE
+    if np.any(bad):
+        index = int(np.flatnonzero(bad)[0])
+        raise ValueError(f'{name} must hold unit vectors toward the sun; vector {index} has '
+                         f'length {norm[index]:.9g}')
+    return array / norm[:, None]
+
+
+def _shading(batch, k, sun, topology, samples, standoff, tessellated, max_cells):
+    """Blocked fractions of validated inputs; the panels are meshed a chunk at a time."""
+    sunlit = sun[:, 2] > SUNLIT_MIN_SZ
+    blocked = np.zeros(len(batch))
+    lit = np.flatnonzero(sunlit)
+    grid = _sample_grid(samples)
+    for start in range(0, lit.size, _PANEL_CHUNK):
+        index = lit[start:start + _PANEL_CHUNK]
+        chunk = batch.take(index)
+        vertices = fold_mesh(chunk, k[index], topology).vertices
+        hits = _cast(chunk, vertices, topology.faces, sun[index], grid, standoff, tessellated,
+                     max_cells)
+        blocked[index] = hits.mean(axis=-1)
+    return Shading(blocked_fraction=blocked, sunlit=sunlit)
+
+
+def _sample_grid(samples):
+    """(S, 3) rows ``(xi, eta, 1)``: cell centres of the footprint in units of ``L`` and ``W``."""
+    centres = (np.arange(samples) + 0.5) / samples - 0.5
+    xi, eta = np.meshgrid(centres, centres, indexing='ij')
+    return np.stack([xi.ravel(), eta.ravel(), np.ones(samples * samples)], axis=-1)
+
+
+def _cast(batch, vertices, faces, sun, grid, standoff, tessellated, max_cells):
+    """(n, S) hits of the footprint rays of n sunlit panels on their (translated) meshes.
+
+    Every ray is started where it enters the meshes' height range, at ``z0``: the mesh lies
+    above. Its start is ``p + a``, ``p`` the footprint point and ``a`` the horizontal run from
+    the footprint to ``z0``. The whole cells ``G`` of ``a`` are taken out so the numbers stay
+    small, and the ray is tested against the home mesh from each start ``p + a - G - h`` for
+    the cells ``h`` it can cross (the mesh copy in cell ``G + h`` seen from the home cell).
+    """
+    cell = np.stack([batch.length_m, batch.width_m], axis=-1)
+    z = vertices[..., 2]
+    bottom = np.maximum(z.min(axis=1), -standoff)
+    height = np.maximum(z.max(axis=1) - bottom, 0.0)
+    run = sun[:, :2] / sun[:, 2:3]
+    with np.errstate(over='ignore', invalid='ignore'):
+        start = (bottom + standoff)[:, None] * run / cell
+        whole = np.where(np.isfinite(start), np.round(start), 0.0)
+        start = np.where(np.isfinite(start), start - whole, 0.0)
+    span = height[:, None] * run / cell
+    # A lone panel's own cell is only ever near the start of the run, so the limit on the
+    # run is exact for it.
+    length = np.abs(span).sum(axis=-1)
+    span = span * np.minimum(1.0, max_cells / np.maximum(length, 1e-300))[:, None]
+    panel, shift = _cells_crossed(start, span)
+    if not tessellated:
+        home = np.all(shift + whole[panel] == 0.0, axis=-1)
+        panel, shift = panel[home], shift[home]
+    # Shadows of the triangles on the plane z = z0 of the ray starts, for culling.
+    shadow = vertices[..., :2] - (z - bottom[:, None])[..., None] * run[:, None, :]
+    corners = shadow[:, faces]
+    rows = _Rows(owner=panel, origin=(start[panel] - shift) * cell[panel],
+                 origin_z=bottom[panel], cell=cell[panel])
+    return _hits(_triangle_factors(vertices, faces, sun), corners.min(axis=2),
+                 corners.max(axis=2), rows, grid, len(batch))
+
+
+def _cells_crossed(start, span):
+    """Cells (in cell units, relative to the home cell) each panel's rays can pass through.
+
+    The rays of a panel start anywhere in the home cell shifted by ``start`` and run by
+    ``tau span``, ``0 <= tau <= 1``, across the height range. Cell ``h`` is crossed if
+    ``|h - start - tau span| < 1`` in x and y for some ``tau``: the shifted cell overlaps it.
+    Returns the panel index and the cell of every (panel, cell) pair, grouped by panel.
+    """
+    reach = 1.0 - 1e-9
+    low = np.ceil(np.minimum(start, start + span) - reach).astype(np.int64)
+    high = np.floor(np.maximum(start, start + span) + reach).astype(np.int64)
+    extent = high - low + 1
+    counts = extent[:, 0] * extent[:, 1]
+    panel = np.repeat(np.arange(start.shape[0]), counts)
+    local = np.arange(counts.sum()) - np.repeat(np.cumsum(counts) - counts, counts)
+    cells = low[panel] + np.stack([local // extent[panel, 1], local % extent[panel, 1]], axis=-1)
+    offset = cells - start[panel]
+    direction = span[panel]
+    moving = np.abs(direction) > 1e-12
+    with np.errstate(divide='ignore', invalid='ignore'):
+        first = (offset - reach) / direction
+        last = (offset + reach) / direction
+    inside = np.abs(offset) < reach
+    enter = np.where(moving, np.minimum(first, last), np.where(inside, -np.inf, np.inf))
+    leave = np.where(moving, np.maximum(first, last), np.where(inside, np.inf, -np.inf))
+    crossed = (np.maximum(enter.max(axis=-1), 0.0) <= np.minimum(leave.min(axis=-1), 1.0))
+    return panel[crossed], cells[crossed].astype(np.float64)
+
+
+def _triangle_factors(vertices, faces, sun):
+    """Per panel and triangle, Moller-Trumbore's barycentric coordinates as affine maps.
+
+    Returns ``(gradient, constant)`` with ``gradient`` (n, 3, 3F) and ``constant`` (n, 3F):
+    ``u = o . gradient + constant`` for the F triangles' ``u = (o - v0) . (s x e2) / det``,
+    then their ``v = (o - v0) . (e1 x s) / det``, then ``w = 1 - u - v``, for ray origins
+    ``o``. Edge-on triangles get ``u = -1`` everywhere, so no ray hits them.
+    """
+    triangles = vertices[:, faces]
+    v0 = triangles[:, :, 0]
+    e1 = triangles[:, :, 1] - v0
+    e2 = triangles[:, :, 2] - v0
+    direction = np.broadcast_to(sun[:, None, :], e1.shape)
+    p_vector = np.cross(direction, e2)
+    det = np.einsum('nfi,nfi->nf', e1, p_vector)
+    facing = np.abs(det) > _EDGE_ON * np.linalg.norm(e1, axis=-1) * np.linalg.norm(e2, axis=-1)
+    scale = np.where(facing, 1.0 / np.where(facing, det, 1.0), 0.0)[..., None]
+    u_gradient = p_vector * scale
+    v_gradient = np.cross(e1, direction) * scale
+    u_constant = np.where(facing, -np.einsum('nfi,nfi->nf', v0, u_gradient), -1.0)
+    v_constant = -np.einsum('nfi,nfi->nf', v0, v_gradient)
+    gradient = np.concatenate([u_gradient, v_gradient, -u_gradient - v_gradient], axis=1)
+    constant = np.concatenate([u_constant, v_constant, 1.0 - u_constant - v_constant], axis=1)
+    return np.swapaxes(gradient, 1, 2), constant
+
+
+@dataclass(frozen=True)
+class _Rows:
+    """Ray batches, one per (panel, cell crossed); each field has R rows."""
+
+    owner: np.ndarray
+    """Panel of each row, ``(R,)``."""
+    origin: np.ndarray
+    """Ray start of the footprint centre ``(ox, oy)`` in the home frame, ``(R, 2)`` [m]."""
+    origin_z: np.ndarray
+    """Height of the ray starts, ``(R,)`` [m]."""
+    cell: np.ndarray
+    """Cell size ``(L, W)`` of the row's panel, ``(R, 2)`` [m]."""
+
+
+def _hits(factors, shadow_low, shadow_high, rows, grid, count):
+    """OR over the rows of the rays' hits, as ``(count, S)`` booleans.
+
+    The ray of sample ``(xi, eta)`` in row r starts at ``(xi L + ox, eta W + oy, z0)``, so
+    the barycentric coordinates of every triangle are ``(xi, eta, 1) @ M_r``. Only triangles
+    whose shadow's bounding box (``shadow_low``, ``shadow_high``: (n, F, 2), on the start
+    plane) reaches the footprint enter ``M_r``; rows with similar counts share a product.
+    """
+    gradient, constant = factors
+    triangles = constant.shape[1] // 3
+    relevant = np.empty((rows.owner.size, triangles), dtype=bool)
+    for begin in range(0, rows.owner.size, 4096):
+        part = slice(begin, begin + 4096)
+        owner = rows.owner[part]
+        half = rows.cell[part, None, :] / 2 * (1 + 1e-6)
+        origin = rows.origin[part, None, :]
+        relevant[part] = np.all((shadow_low[owner] - origin <= half)
+                                & (shadow_high[owner] - origin >= -half), axis=-1)
+    counts = relevant.sum(axis=1)
+    order = np.argsort(-counts, kind='stable')
+    order = order[counts[order] > 0]
+    grid32 = grid.astype(np.float32)
+    hits = np.zeros((count, grid.shape[0]), dtype=bool)
+    begin = 0
+    while begin < order.size:
+        width = int(counts[order[begin]])
+        step = order[begin:begin + max(1, _ELEMENT_BUDGET // (grid.shape[0] * 3 * width))]
+        begin += step.size
+        hits_of_step = _step_hits(gradient, constant, relevant[step], width, rows, step, grid32)
+        np.logical_or.at(hits, rows.owner[step], hits_of_step)
+    return hits
+
+
+def _step_hits(gradient, constant, relevant, width, rows, step, grid32):
+    """Hits ``(r, S)`` of the rows ``step`` on their first ``width`` relevant triangles."""
+    triangles = relevant.shape[1]
+    chosen = np.argsort(~relevant, axis=1, kind='stable')[:, :width]
+    valid = np.take_along_axis(relevant, chosen, axis=1)
+    columns = np.concatenate([chosen, chosen + triangles, chosen + 2 * triangles], axis=1)
+    owner = rows.owner[step]
+    g = np.take_along_axis(gradient[owner], columns[:, None, :], axis=2)
+    c = np.take_along_axis(constant[owner], columns, axis=1)
+    affine = np.empty_like(g)
+    affine[:, 0] = g[:, 0] * rows.cell[step, 0:1]
+    affine[:, 1] = g[:, 1] * rows.cell[step, 1:2]
+    affine[:, 2] = (c + g[:, 0] * rows.origin[step, 0:1] + g[:, 1] * rows.origin[step, 1:2]
+                    + g[:, 2] * rows.origin_z[step, None])
+    affine[:, :, :width] = np.where(valid[:, None, :], affine[:, :, :width],
+                                    [[0.0], [0.0], [-1.0]])
+    uvw = np.matmul(grid32, affine.astype(np.float32))
+    inside = np.minimum(uvw[..., :width], uvw[..., width:2 * width])
+    np.minimum(inside, uvw[..., 2 * width:], out=inside)
+    return inside.max(axis=-1) >= -_BARYCENTRIC_SLACK

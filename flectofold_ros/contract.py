@@ -1,0 +1,161 @@
+"""The public contract of flectofold_ros: every topic, its type and QoS, the words on it.
+
+Pure Python (no rclpy), so that the nodes, the recorder, the Rerun scene, the bringup's plan,
+the launch file and the tests all take names from here; :mod:`flectofold_ros.interfaces` turns
+them into rclpy objects. The contract is documented, table by table, in ``msg_docs/``.
+
+**One rule for names: every topic and service name is absolute.** Panel topics live under
+``/facade/<panel id>/``, the facade's own under ``/facade/``; ``/clock`` and ``/diagnostics``
+are the ROS-wide ones. A node's namespace says which node it is (``/facade/r02c03/panel``), not
+where its topics are, so remapping works on the absolute names
+(``-r /facade/r02c03/setpoint:=/my/cmd``).
+"""
+
+from dataclasses import dataclass
+import re
+
+from flectofold_model.control import Fault, SetpointState
+
+#: Root of everything a facade publishes.
+FACADE_NAMESPACE = '/facade'
+#: Panel ids as facade descriptions build them: ``r<row>c<column>``, two digits each.
+PANEL_ID = re.compile(r'r\d{2}c\d{2}')
+
+
+@dataclass(frozen=True)
+class Qos:
+    """A QoS profile in plain words: history depth, reliability, durability."""
+
+    depth: int
+    reliable: bool = True
+    latched: bool = False
+    """Transient local: a late subscriber gets the last ``depth`` messages."""
+
+
+#: Streams of state and commands: reliable, volatile, keep last 10.
+STREAM = Qos(depth=10)
+#: Latched state (fault, status): reliable, transient local, keep last 1.
+LATCHED = Qos(depth=1, latched=True)
+#: What an observer that must not miss a burst subscribes with (the Rerun bridge).
+OBSERVER = Qos(depth=100)
+#: What rclpy's ``qos_profile_sensor_data`` asks (best effort, keep last 5): a subscriber
+#: with it is compatible with every stream.
+SENSOR_DATA = Qos(depth=5, reliable=False)
+#: What the replay publishes a recorded stream with.
+REPLAY = Qos(depth=100)
+#: History depth of the recorder's subscriptions, which mirror the publishers' QoS.
+RECORDING_DEPTH = 1000
+
+
+def recording_qos(latched, reliable):
+    """Return the recorder's subscription QoS for a latched / reliable topic."""
+    return Qos(depth=RECORDING_DEPTH, reliable=reliable, latched=latched)
+
+
+@dataclass(frozen=True)
+class Topic:
+    """A topic: absolute name, message type (``package/msg/Name``) and its publishers' QoS."""
+
+    name: str
+    msgtype: str
+    qos: Qos = STREAM
+
+
+@dataclass(frozen=True)
+class PanelTopic:
+    """A topic every panel has, under ``/facade/<panel id>/<suffix>``."""
+
+    suffix: str
+    msgtype: str
+    qos: Qos = STREAM
+
+    def of(self, panel_id):
+        """Return the :class:`Topic` of panel ``panel_id``."""
+        return Topic(panel_topic_name(panel_id, self.suffix), self.msgtype, self.qos)
+
+
+def panel_namespace(panel_id):
+    """``/facade/<panel id>``: the namespace of a panel's node and topics."""
+    return f'{FACADE_NAMESPACE}/{panel_id}'
+
+
+def panel_topic_name(panel_id, suffix):
+    """``/facade/<panel id>/<suffix>``."""
+    return f'{panel_namespace(panel_id)}/{suffix}'
+
+
+# -- the ROS-wide topics ----------------------------------------------------------------------
+
+CLOCK = Topic('/clock', 'rosgraph_msgs/msg/Clock')
+DIAGNOSTICS = Topic('/diagnostics', 'diagnostic_msgs/msg/DiagnosticArray')
+
+# -- the facade's topics ----------------------------------------------------------------------
+
+SUN = Topic(f'{FACADE_NAMESPACE}/sun', 'geometry_msgs/msg/Vector3Stamped')
+WIND_SPEED = Topic(f'{FACADE_NAMESPACE}/wind_speed', 'std_msgs/msg/Float64')
+DNI = Topic(f'{FACADE_NAMESPACE}/dni', 'std_msgs/msg/Float64')
+OVERRIDE = Topic(f'{FACADE_NAMESPACE}/override', 'sensor_msgs/msg/JointState')
+OVERRIDE_CLEAR = Topic(f'{FACADE_NAMESPACE}/override_clear', 'std_msgs/msg/String')
+#: ``override`` and ``override_clear`` name this instead of a panel id for every panel.
+ALL_PANELS = '*'
+
+# -- each panel's topics and service ----------------------------------------------------------
+
+SETPOINT = PanelTopic('setpoint', 'std_msgs/msg/Float64')
+PRESSURE = PanelTopic('pressure', 'sensor_msgs/msg/FluidPressure')
+JOINT_STATES = PanelTopic('joint_states', 'sensor_msgs/msg/JointState')
+CLOSURE = PanelTopic('closure', 'std_msgs/msg/Float64')
+FAULT = PanelTopic('fault', 'std_msgs/msg/String', LATCHED)
+STATUS = PanelTopic('status', 'std_msgs/msg/String', LATCHED)
+#: What a panel publishes, in the order the docs list it.
+PANEL_OUTPUTS = (PRESSURE, JOINT_STATES, CLOSURE, FAULT, STATUS)
+#: The panel outputs a panel streams at its publish rate (the rest are latched).
+PANEL_STATE = (JOINT_STATES, PRESSURE, CLOSURE)
+RESET_FAULTS_SERVICE = 'reset_faults'
+RESET_FAULTS_TYPE = 'std_srvs/srv/Trigger'
+
+
+def reset_faults_service(panel_id):
+    """``/facade/<panel id>/reset_faults``."""
+    return panel_topic_name(panel_id, RESET_FAULTS_SERVICE)
+
+
+def flap_joint_names(panel_id):
+    """``joint_states`` names of a panel's two flaps."""
+    return [f'{panel_id}_flap_left', f'{panel_id}_flap_right']
+
+
+# -- words on the topics ----------------------------------------------------------------------
+
+#: ``fault`` values: the latched circuit fault (``none`` when healthy).
+FAULTS = tuple(fault.value for fault in Fault)
+NO_FAULT = Fault.NONE.value
+#: ``status`` value of a panel with a latched fault.
+STATUS_FAULT = 'fault'
+#: ``status`` values: where the tracked setpoint comes from, or ``fault``.
+STATUSES = tuple(state.value for state in SetpointState) + (STATUS_FAULT,)
+STATUS_TIMED_OUT = SetpointState.TIMED_OUT.value
+#: ``header.frame_id`` of the sun vector and of every position in the site's frame.
+SITE_FRAME = 'site_enu'
+
+# -- nodes ------------------------------------------------------------------------------------
+
+PANEL_NODE = 'panel'
+"""Name of a panel's node; its namespace is :func:`panel_namespace`."""
+COORDINATOR_NODE = 'coordinator'
+SUN_POSITION_NODE = 'sun_position'
+MONITOR_NODE = 'facade_monitor'
+RERUN_BRIDGE_NODE = 'rerun_bridge'
+RECORDER_NODE = 'bag_recorder'
+REPLAY_NODE = 'replay'
+#: Namespace of the facade-wide nodes (coordinator, monitor, bridge).
+FACADE_NODE_NAMESPACE = FACADE_NAMESPACE
+
+#: What the recorder records unless told otherwise.
+RECORDED_BY_DEFAULT = (f'{FACADE_NAMESPACE}/**', DIAGNOSTICS.name, CLOCK.name)
+
+# -- diagnostics ------------------------------------------------------------------------------
+
+#: ``/diagnostics`` keys of a panel's status whose values are cumulative counts, for summaries.
+DIAGNOSTIC_FREE_AIR_NL = 'free_air_used_nl'
+DIAGNOSTIC_SETPOINTS_REJECTED = 'setpoints_rejected'

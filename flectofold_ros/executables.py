@@ -1,0 +1,60 @@
+"""Entry points of the package's executables: stop signals handled from the first instant.
+
+A console script imports its module before it runs anything, and importing rclpy, numpy,
+scipy and pvlib takes a second or two: a Ctrl-C then would print a ``KeyboardInterrupt``
+traceback from deep in an import. Each entry point here installs the package's stop-signal
+handling (:mod:`flectofold_ros.runner`) first, with nothing but the standard library loaded,
+then imports the executable's module and runs its ``main``. ``python -m flectofold_ros NAME
+ARGS`` does the same; the ``facade`` bringup starts its children that way.
+"""
+
+import importlib
+import sys
+
+from flectofold_ros.runner import Interrupted, stop_signals
+
+#: Executable -> (module with ``main(args=None)``, exit code when stopped while it loads):
+#: a node asked to stop ends normally (0), a day or a command cut short says so (130).
+EXECUTABLES = {
+    'fold_table': ('flectofold_ros.commands.fold_table', 130),
+    'day_report': ('flectofold_ros.commands.day_report', 130),
+    'panel_node': ('flectofold_ros.nodes.panel', 0),
+    'panel_group': ('flectofold_ros.nodes.panel_group', 0),
+    'sun_position_node': ('flectofold_ros.nodes.sun_position', 0),
+    'coordinator_node': ('flectofold_ros.nodes.coordinator', 0),
+    'facade': ('flectofold_ros.bringup.cli', 130),
+    'rerun_bridge': ('flectofold_ros.nodes.rerun_bridge', 0),
+    'bag_recorder': ('flectofold_ros.nodes.bag_recorder', 0),
+    'replay': ('flectofold_ros.commands.replay', 0),
+}
+
+
+def run(name, args=None):
+    """Run executable ``name`` with ``args`` (``sys.argv`` when None); return its exit code."""
+    module_name, stopped_code = EXECUTABLES[name]
+    with stop_signals():
+        try:
+            module = importlib.import_module(module_name)
+        except Interrupted:
+            return stopped_code
+        return module.main(args)
+
+
+def _entry_point(name):
+    def main():
+        sys.exit(run(name))
+    main.__name__ = name
+    main.__doc__ = f'Console script ``{name}``.'
+    return main
+
+
+fold_table = _entry_point('fold_table')
+day_report = _entry_point('day_report')
+panel_node = _entry_point('panel_node')
+panel_group = _entry_point('panel_group')
+sun_position_node = _entry_point('sun_position_node')
+coordinator_node = _entry_point('coordinator_node')
+facade = _entry_point('facade')
+rerun_bridge = _entry_point('rerun_bridge')
+bag_recorder = _entry_point('bag_recorder')
+replay = _entry_point('replay')

@@ -1,0 +1,257 @@
+"""The facade coordinator: sun, wind, overrides and panel faults in; every panel's setpoint out.
+
+Each ``control.period_s`` of ROS time it runs
+:class:`flectofold_model.scheduling.FacadeSchedule` on the latest sun vector and publishes
+each panel's commanded closure; between decisions it repeats them every ``setpoint_period_s``
+as the panels' watchdog heartbeat. Topics, parameters and QoS: ``msg_docs/coordinator_node.md``.
+"""
+
+from collections import Counter
+import math
+import sys
+
+from rclpy.clock import Clock, ClockType
+from rclpy.node import Node
+from std_msgs.msg import Float64
+
+from flectofold_model.environment import sun_vector_enu
+from flectofold_model.facade import DEFAULT_FACADE, load_facade
+from flectofold_model.scheduling import FacadeSchedule
+from flectofold_model.scheduling.facade_schedule import representative_panel
+from flectofold_model.shading import ShadingTable
+from flectofold_ros import contract, diagnostics
+from flectofold_ros.interfaces import publisher, subscription
+from flectofold_ros.parameters import declare_all, double, string
+from flectofold_ros.runner import Program, run_nodes
+
+USAGE = 'coordinator_node [--ros-args -p name:=value ...]'
+
+#: name -> Spec.
+PARAMETERS = {
+    'facade_file': string('', 'Facade description YAML; empty: the embedded demonstrator'),
+    'setpoint_period_s': double(1.0, 'Heartbeat: every setpoint is repeated this often [s]',
+                                0.05, 3600.0),
+    'sun_timeout_s': double(900.0, 'A sun vector older than this is not used [s]',
+                            1.0, 86400.0),
+    'weather_timeout_s': double(60.0, 'A wind or DNI reading older than this is dropped [s]',
+                                1.0, 86400.0),
+    'override_duration_s': double(0.0, 'Life of an override [s]; 0: the facade default',
+                                  0.0, 604800.0),
+    'diagnostics_period_s': double(1.0, 'Period of /diagnostics, wall clock [s]', 0.1, 60.0),
+}
+
+
+class CoordinatorNode(Node):
+    """Node ``coordinator`` in namespace ``/facade`` (panel topics are ``<id>/...``)."""
+
+    def __init__(self, **kwargs):
+        kwargs.setdefault('namespace', contract.FACADE_NODE_NAMESPACE)
+        super().__init__(contract.COORDINATOR_NODE, **kwargs)
+        declare_all(self, PARAMETERS)
+        path = self._value('facade_file') or DEFAULT_FACADE
+        self.facade = load_facade(path)
+        self.period_s = float(self.facade.control.get('period_s', 60.0))
+        self.look_ahead_s = float(self.facade.control.get('look_ahead_s', 0.0))
+        self.schedule = None
+        self._table = ShadingTable(representative_panel(self.facade))  # seconds: not in a callback
+        self.commanded = None
+        self.last_result = None
+        self.decisions = 0
+        self.air_used_nl = 0.0
+        self.peak_filling = 0
+        self.rejected = Counter()
+        self._last_decision_s = -math.inf
+        self._sun = None
+        self._wind = None
+        self._dni = None
+        self._faulted = dict.fromkeys(self.facade.panel_ids, False)
+        self._setpoints = [publisher(self, contract.SETPOINT.of(panel_id))
+                           for panel_id in self.facade.panel_ids]
+        for panel_id in self.facade.panel_ids:
+            subscription(self, contract.FAULT.of(panel_id),
+                         lambda m, p=panel_id: self._on_fault(p, m))
+        subscription(self, contract.SUN, self._on_sun)
+        subscription(self, contract.WIND_SPEED, self._on_wind)
+        subscription(self, contract.DNI, self._on_dni)
+        subscription(self, contract.OVERRIDE, self._on_override)
+        subscription(self, contract.OVERRIDE_CLEAR, self._on_override_clear)
+        self._diagnostics = publisher(self, contract.DIAGNOSTICS)
+        self.create_timer(self.period_s, self._decide)
+        self.create_timer(self._value('setpoint_period_s'), self._heartbeat)
+        self.create_timer(self._value('diagnostics_period_s'), self._report,
+                          clock=Clock(clock_type=ClockType.STEADY_TIME))
+        self.get_logger().info(f'{self.facade.name}: {len(self.facade)} panels, a decision '
+                               f'every {self.period_s:g} s, look-ahead {self.look_ahead_s:g} s')
+
+    def _value(self, name):
+        return self.get_parameter(name).value
+
+    def _now_s(self):
+        return self.get_clock().now().nanoseconds * 1e-9
+
+    # -- inputs -----------------------------------------------------------------------------
+
+    def _reject(self, topic, reason):
+        self.rejected[topic] += 1
+        self.get_logger().warning(f'rejected {topic}: {reason}', throttle_duration_sec=1.0)
+
+    def _on_sun(self, message):
+        v = message.vector
+        vector = (v.x, v.y, v.z)
+        if not all(math.isfinite(c) for c in vector) or abs(math.hypot(*vector) - 1.0) > 1e-6:
+            self._reject('sun', f'not a finite unit vector: {vector}')
+            return
+        self._sun = (vector, self._now_s())
+        if self.schedule is None:
+            self._decide()
+
+    def _on_reading(self, name, message, low, high):
+        value = message.data
+        if not math.isfinite(value) or not low <= value <= high:
+            self._reject(name, f'{value} is outside [{low:g}, {high:g}]')
+            return None
+        return value, self._now_s()
+
+    def _on_wind(self, message):
+        self._wind = self._on_reading('wind_speed', message, 0.0, 100.0) or self._wind
+
+    def _on_dni(self, message):
+        self._dni = self._on_reading('dni', message, 0.0, 1500.0) or self._dni
+
+    def _on_fault(self, panel_id, message):
+        self._faulted[panel_id] = message.data != contract.NO_FAULT
+
+    def _selection(self, name):
+        if name == contract.ALL_PANELS:
+            return list(range(len(self.facade)))
+        if name in self._faulted:
+            return [self.facade.panel_ids.index(name)]
+        raise ValueError(f'unknown panel {name!r}')
+
+    def _on_override(self, message):
+        if self.schedule is None:
+            self._reject('override', 'no schedule yet (waiting for the sun)')
+            return
+        if len(message.name) != len(message.position):
+            self._reject('override', 'name and position differ in length')
+            return
+        duration = self._value('override_duration_s') or None
+        for name, closure in zip(message.name, message.position):
+            try:
+                panels = self._selection(name)
+                self.schedule.scheduler.set_override(closure, self._decision_time(), panels,
+                                                     duration_s=duration)
+            except (ValueError, TypeError) as error:
+                self._reject('override', f'{name}: {error}')
+                continue
+            self.get_logger().info(f'override {name}: closure {closure:g}')
+        self._decide()
+
+    def _on_override_clear(self, message):
+        if self.schedule is None:
+            return
+        for name in (n.strip() for n in message.data.split(',') if n.strip()):
+            try:
+                self.schedule.scheduler.clear_override(panels=self._selection(name))
+            except ValueError as error:
+                self._reject('override_clear', str(error))
+        self._decide()
+
+    # -- decisions --------------------------------------------------------------------------
+
+    def _decision_time(self):
+        return max(self._now_s(), self._last_decision_s)
+
+    def _fresh(self, reading, timeout_s):
+        if reading is None or self._now_s() - reading[1] > timeout_s:
+            return None
+        return reading[0]
+
+    def _sun_window(self, now_s, sun):
+        if self.look_ahead_s <= 0.0:
+            return sun
+        ahead = now_s + self.period_s * (1 + math.floor(self.look_ahead_s / self.period_s))
+        times = list(_frange(now_s + self.period_s, ahead, self.period_s))
+        predicted = sun_vector_enu(times, self.facade.site) if times else []
+        return [sun, *predicted]
+
+    def _decide(self):
+        now = self._now_s()
+        sun = self._fresh(self._sun, self._value('sun_timeout_s'))
+        if now <= 0.0 or sun is None:
+            return
+        if self.schedule is None:
+            self.schedule = FacadeSchedule(self.facade, start_s=now, table=self._table)
+            self._last_decision_s = now
+        if now < self._last_decision_s:
+            return
+        faulted = [self._faulted[p] for p in self.facade.panel_ids]
+        weather_timeout = self._value('weather_timeout_s')
+        result = self.schedule.step(now, self._sun_window(now, sun),
+                                    dni_w_m2=self._fresh(self._dni, weather_timeout),
+                                    wind_m_s=self._fresh(self._wind, weather_timeout),
+                                    faulted=faulted)
+        self._last_decision_s = now
+        self.last_result, self.commanded = result, result.closure
+        self.decisions += 1
+        self.air_used_nl += result.air_used_nl
+        self.peak_filling = max(self.peak_filling, int(result.filling.sum()))
+        self._heartbeat()
+
+    def _heartbeat(self):
+        if self.commanded is None:
+            return
+        for setpoint, closure in zip(self._setpoints, self.commanded):
+            setpoint.publish(Float64(data=float(closure)))
+
+    # -- diagnostics ------------------------------------------------------------------------
+
+    def _report(self):
+        self._diagnostics.publish(diagnostics.diagnostic_array(self, [self.diagnostic_status()]))
+
+    def figures(self):
+        """Return the schedule's figures so far: decisions, moves per panel, fills, air."""
+        moves = (self.schedule.scheduler.moves_today if self.schedule is not None
+                 else None)
+        return {'decisions': self.decisions,
+                'moves_mean': float(moves.mean()) if moves is not None else math.nan,
+                'moves_max': int(moves.max()) if moves is not None else 0,
+                'peak_filling': self.peak_filling, 'air_used_nl': self.air_used_nl}
+
+    def diagnostic_status(self):
+        """Return the schedule's REP-107 status."""
+        level, message = diagnostics.OK, 'scheduling'
+        if self.schedule is None:
+            level, message = diagnostics.WARN, 'waiting for the sun'
+        elif self._fresh(self._sun, self._value('sun_timeout_s')) is None:
+            level, message = diagnostics.WARN, 'sun vector stale: holding the schedule'
+        values = {'decisions': self.decisions, 'air_budget_used_nl': f'{self.air_used_nl:.1f}',
+                  'faulted_panels': sum(self._faulted.values()),
+                  'rejected_inputs': sum(self.rejected.values())}
+        if self.schedule is not None:
+            scheduler = self.schedule.scheduler
+            values.update(storm_latched=scheduler.storm_latched,
+                          mean_commanded_closure=f'{scheduler.commanded_closure.mean():.3f}')
+            if scheduler.storm_latched:
+                level, message = diagnostics.WARN, 'storm: panels at the storm position'
+        if self.last_result is not None:
+            reasons = Counter(reason.value for reason in self.last_result.reason)
+            values.update({f'reason_{name}': count for name, count in reasons.items()})
+        return diagnostics.status(self, level, 'schedule', self.facade.name, message, values)
+
+
+def _frange(start, stop, step):
+    value = start
+    while value < stop - 1e-9:
+        yield value
+        value += step
+
+
+def main(args=None):
+    """``ros2 run flectofold_ros coordinator_node --ros-args -p use_sim_time:=true``."""
+    return run_nodes('coordinator_node', args, lambda: Program([CoordinatorNode()]), USAGE,
+                     PARAMETERS)
+
+
+if __name__ == '__main__':
+    sys.exit(main())

@@ -1,0 +1,65 @@
+"""Many panel nodes in one process on one events executor and one vectorised loop.
+
+``ros2 run flectofold_ros panel_group --panels r00c00,r00c01`` or ``--group 2/3`` (the third of
+three equal slices of the facade's panels). Parameters given with ``--ros-args -p`` reach
+every panel node of the process; see ``msg_docs/panel_node.md``.
+"""
+
+import argparse
+import sys
+
+from rclpy.parameter import Parameter
+from rclpy.utilities import remove_ros_args
+
+from flectofold_model.facade import DEFAULT_FACADE, load_facade
+from flectofold_ros.nodes.panel import run_panels
+
+
+def group_slice(panel_ids, group, groups):
+    """Return the ``group``-th of ``groups`` contiguous, nearly equal slices of ``panel_ids``."""
+    if not 0 <= group < groups:
+        raise ValueError(f'group {group} is not in 0..{groups - 1}')
+    if groups > len(panel_ids):
+        raise ValueError(f'{groups} groups for {len(panel_ids)} panels')
+    start = group * len(panel_ids) // groups
+    return panel_ids[start:(group + 1) * len(panel_ids) // groups]
+
+
+def _group(text):
+    try:
+        group, groups = (int(part) for part in text.split('/'))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f'expected K/N, got {text!r}') from None
+    return group, groups
+
+
+def parse_arguments(argv):
+    parser = argparse.ArgumentParser(prog='panel_group', description=__doc__.split('\n')[0])
+    which = parser.add_mutually_exclusive_group(required=True)
+    which.add_argument('--panels', help='comma-separated panel ids, e.g. r00c00,r00c01')
+    which.add_argument('--group', type=_group, help='K/N: slice K (from 0) of N of the facade')
+    parser.add_argument('--facade', default='',
+                        help='facade YAML (default: the embedded demonstrator); sets the '
+                             "nodes' facade_file parameter")
+    return parser.parse_args(argv)
+
+
+def main(args=None):
+    argv = remove_ros_args(args=sys.argv if args is None else args)[1:]
+    options = parse_arguments(argv)
+    overrides = [Parameter('facade_file', value=options.facade)] if options.facade else []
+
+    def panel_ids():
+        if options.panels:
+            ids = [p.strip() for p in options.panels.split(',') if p.strip()]
+            if not ids:
+                raise ValueError('--panels names no panel')
+            return ids
+        facade = load_facade(options.facade or DEFAULT_FACADE)
+        return group_slice(facade.panel_ids, *options.group)
+
+    return run_panels('panel_group', args, panel_ids, parameter_overrides=overrides)
+
+
+if __name__ == '__main__':
+    sys.exit(main())

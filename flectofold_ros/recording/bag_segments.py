@@ -1,0 +1,590 @@
+"""Crash-tolerant rosbag2 recording in rotated MCAP segments, and reading it back for replay.
+
+Pure Python on top of ``rosbags`` (no rclpy), so it runs and is tested without ROS.
+
+Layout on disk
+--------------
+One bag directory ``<path>/`` (called ``<name>``) in the layout rosbag2 itself uses for a split
+bag::
+
+    <name>/
+        metadata.yaml          version 9, storage_identifier mcap, covers the closed segments
+        <name>_0.mcap          closed segments, each a complete MCAP file with summary and footer
+        <name>_1.mcap
+        ...
+        .open_segment/         hidden working directory of the segment being written
+            .open_segment.mcap
+
+``metadata.yaml`` lists every closed segment in ``relative_file_paths`` and ``files`` (path,
+starting_time, duration, message_count) and sums ``topics_with_message_count`` over them; all
+registered topics are listed, with count 0 if none of their messages is in a closed segment yet.
+It is written at creation (no files, no topics), and rewritten each time a
+segment closes, after the segment's ``.mcap`` was moved out of the working directory; every
+write is atomic (temp file, fsync, ``os.replace``).
+
+rosbags' ``Reader`` (checked with rosbags 0.11.9) opens such a directory as one bag: it reads
+``metadata.yaml``, opens every file of ``relative_file_paths`` (all must exist) and ignores any
+other entry, so the hidden working directory does not disturb it. It matches the connections of
+``metadata.yaml`` to each file's MCAP channels by topic, type and offered QoS, which agree here
+because both are generated from the same ``Qos`` values. It yields the messages file after file,
+so :func:`read_messages` merges the segments by timestamp itself (late messages can make
+segments overlap in time). The rosbag2 metadata record inside each ``.mcap`` still names the
+working file (``.open_segment.mcap``); readers use the bag's ``metadata.yaml`` instead.
+
+Crash behaviour
+---------------
+rosbags' MCAP writer writes the summary and footer only when a file is closed, so the open
+segment is unreadable after a hard kill (SIGKILL, ``os._exit``, power cut). Everything in closed
+segments stays readable with ``rosbags.rosbag2.Reader`` and ``rosbags.highlevel.AnyReader``; a
+crash therefore loses at most the open segment, i.e. up to ``max_segment_bytes`` or
+``max_segment_s`` of data. The partial file stays in ``.open_segment/`` (the complete chunks in it
+can be salvaged with an MCAP stream reader). A crash between moving a segment and rewriting
+``metadata.yaml`` leaves an unlisted ``<name>_<i>.mcap`` that readers ignore. After an ``OSError``
+while writing (a full disk, say) the writer aborts the open segment the same way and refuses
+further writes; the bag keeps its closed segments.
+
+Rotation
+--------
+Before each write the open segment is closed and a new one started when it holds at least
+``max_segment_bytes`` of messages (estimated while writing as payload plus 47 bytes of MCAP
+message record and index per message, because the writer buffers 1 MiB chunks in memory and the
+file size lags) or when the new message is at least ``max_segment_s`` after the segment's first
+message. A segment may thus exceed the limit by one message; each file also carries a fixed part
+of a few KiB (message definitions, channels, summary; 5.8 kB for Float64, FluidPressure and
+String). Without rotation the whole recording is one segment that becomes readable only at
+:meth:`SegmentedBagWriter.close`. No ROS is installed where this was written, so ``ros2 bag
+play``/``info`` on these bags is untested; the layout and field names follow rosbag2's own split
+bags.
+"""
+
+import errno
+import heapq
+import math
+import os
+from pathlib import Path
+import shutil
+from types import TracebackType
+from typing import Callable, Iterable, Iterator, NamedTuple, Optional, Union
+
+from rosbags.interfaces import (Connection, ConnectionExtRosbag2, Qos, QosDurability, QosHistory,
+                                QosLiveliness, QosReliability, QosTime)
+from rosbags.rosbag2 import Reader, StoragePlugin, Writer
+from rosbags.rosbag2.metadata import dump_qos_v9
+from rosbags.typesys import get_typestore, Stores
+from ruamel.yaml import YAML
+
+BAG_VERSION = 9
+"""rosbag2 metadata version written (Jazzy's)."""
+WORKING_DIR = '.open_segment'
+"""Name of the hidden working directory of the open segment inside the bag."""
+QOS_DEPTH = 10
+"""History depth of the offered QoS recorded per topic [messages]."""
+MCAP_MESSAGE_OVERHEAD = 47
+"""Bytes an MCAP file spends per message besides the payload: the message record's opcode,
+length, channel, sequence, log and publish time (31) and its message index entry (16) [bytes]."""
+
+PathLike = Union[str, 'os.PathLike[str]']
+Message = tuple[str, str, int, bytes]
+
+
+class BagError(Exception):
+    """A bag cannot be created, written or read; the message names the path or topic."""
+
+
+class _Topic(NamedTuple):
+    msgtype: str
+    latched: bool
+
+
+class _Segment(NamedTuple):
+    """A closed segment as listed in metadata.yaml."""
+
+    file_name: str
+    start_ns: int
+    end_ns: int
+    counts: dict[str, int]
+
+
+def offered_qos(latched: bool) -> Qos:
+    """Return the QoS recorded as offered: reliable, keep last 10, transient local when latched."""
+    durability = QosDurability.TRANSIENT_LOCAL if latched else QosDurability.VOLATILE
+    return Qos(
+        QosHistory.KEEP_LAST, QOS_DEPTH, QosReliability.RELIABLE, durability,
+        QosTime(0, 0), QosTime(0, 0), QosLiveliness.AUTOMATIC, QosTime(0, 0), False)
+
+
+def _rotation_limit(name: str, value: Optional[float]) -> Optional[float]:
+    """Validate one rotation setting: None, or a finite positive number."""
+    if value is None:
+        return None
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise BagError(f'{name} must be a positive number or None, got {value!r}')
+    if not math.isfinite(value) or value <= 0:
+        raise BagError(f'{name} must be finite and positive, got {value!r}')
+    return float(value)
+
+
+def _create_bag_dir(path: Path) -> None:
+    """Create the bag directory, or raise BagError saying why it cannot be."""
+    if path.exists() or path.is_symlink():
+        raise BagError(f'bag path {path} exists already; choose a new name')
+    if not path.parent.is_dir():
+        raise BagError(f'cannot create bag {path}: parent directory {path.parent} is missing')
+    try:
+        path.mkdir()
+        probe = path / '.write_probe'
+        probe.write_bytes(b'')
+        probe.unlink()
+    except OSError as err:
+        raise BagError(f'cannot create bag {path}: not writable ({_reason(err)})') from err
+
+
+def _reason(err: OSError) -> str:
+    """Short reason of an OSError, e.g. 'No space left on device'."""
+    return err.strerror or errno.errorcode.get(err.errno or 0, '') or str(err)
+
+
+def _fsync_dir(path: Path) -> None:
+    """Make a rename inside ``path`` durable (best effort)."""
+    try:
+        fd = os.open(path, os.O_RDONLY)
+    except OSError:
+        return
+    try:
+        os.fsync(fd)
+    except OSError:
+        pass
+    finally:
+        os.close(fd)
+
+
+class SegmentedBagWriter:
+    """Record serialized messages into one rosbag2 bag of rotated MCAP segments.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        Bag directory to create; must not exist, its parent must.
+    max_segment_bytes : float, optional
+        Rotate when the open segment holds at least this many bytes of messages (payload plus
+        ``MCAP_MESSAGE_OVERHEAD`` each) [bytes]; None disables size rotation.
+    max_segment_s : float, optional
+        Rotate when a message is at least this long after the open segment's first message
+        [s of message time]; None disables time rotation.
+
+    Raises
+    ------
+    BagError
+        The path exists, its parent is missing, it is not writable, or a rotation setting is
+        not a finite positive number.
+    """
+
+    def __init__(self, path: PathLike, *, max_segment_bytes: Optional[float] = None,
+                 max_segment_s: Optional[float] = None) -> None:
+        self._max_bytes = _rotation_limit('max_segment_bytes', max_segment_bytes)
+        self._max_s = _rotation_limit('max_segment_s', max_segment_s)
+        self._path = Path(path)
+        self._typestore = get_typestore(Stores.ROS2_JAZZY)
+        self._topics: dict[str, _Topic] = {}
+        self._digests: dict[str, str] = {}
+        self._closed: list[_Segment] = []
+        self._writer: Optional[Writer] = None
+        self._connections: dict[str, Connection] = {}
+        self._seg_counts: dict[str, int] = {}
+        self._seg_bytes = 0
+        self._seg_start_ns: Optional[int] = None
+        self._seg_end_ns = 0
+        self._bytes_written = 0
+        self._failed: Optional[str] = None
+        self._is_closed = False
+        _create_bag_dir(self._path)
+        self._guard_os('create metadata.yaml of', self._write_metadata)
+        self._guard_os('open a segment in', self._open_segment)
+
+    # -- public API ------------------------------------------------------------------------------
+
+    @property
+    def path(self) -> Path:
+        """The bag directory."""
+        return self._path
+
+    @property
+    def message_counts(self) -> dict[str, int]:
+        """Messages written per topic, all segments including the open one [messages]."""
+        counts = self._closed_counts()
+        for name, count in self._seg_counts.items():
+            counts[name] += count
+        return counts
+
+    @property
+    def message_count(self) -> int:
+        """Messages written in total [messages]."""
+        return sum(self.message_counts.values())
+
+    @property
+    def bytes_written(self) -> int:
+        """Message bytes written in all segments, overhead included [bytes]."""
+        return self._bytes_written
+
+    @property
+    def segments(self) -> list[Path]:
+        """Files of the closed segments, in order."""
+        return [self._path / segment.file_name for segment in self._closed]
+
+    @property
+    def closed(self) -> bool:
+        """True after :meth:`close`."""
+        return self._is_closed
+
+    def add_topic(self, name: str, msgtype: str, *, latched: bool = False) -> None:
+        """Register a topic; adding it again with the same type is a no-op.
+
+        ``msgtype`` is e.g. ``'sensor_msgs/msg/FluidPressure'`` and must be known to the
+        ROS 2 Jazzy typestore. ``latched`` records TRANSIENT_LOCAL durability so that
+        ``ros2 bag play`` re-latches the topic.
+        """
+        self._check_writable()
+        if not isinstance(name, str) or not name:
+            raise BagError(f'topic name must be a non-empty string, got {name!r}')
+        if name in self._topics:
+            known = self._topics[name]
+            if known.msgtype != msgtype:
+                raise BagError(f'topic {name} is already recorded as {known.msgtype}, '
+                               f'cannot add it as {msgtype}')
+            return
+        if msgtype not in self._typestore.fielddefs:
+            raise BagError(f'topic {name}: message type {msgtype!r} is unknown to the '
+                           'ROS 2 Jazzy typestore')
+        self._topics[name] = _Topic(msgtype, bool(latched))
+        # metadata.yaml lists the topic when a segment closes: rewriting (and fsyncing) it
+        # here cost ~90 ms per topic, which held up subscribing to a facade's 200 topics.
+        self._guard_os(f'add topic {name} to', lambda: self._add_connection(name))
+
+    def write(self, topic: str, t_ns: int, raw: Union[bytes, bytearray, memoryview]) -> None:
+        """Write one serialized message.
+
+        Parameters
+        ----------
+        topic : str
+            A topic registered with :meth:`add_topic`.
+        t_ns : int
+            Receive time [ns of ROS time].
+        raw : bytes
+            The CDR message with its 4-byte encapsulation header, as from
+            ``rclpy.serialization.serialize_message`` or a ``raw=True`` subscription.
+        """
+        self._check_writable()
+        if topic not in self._topics:
+            raise BagError(f'topic {topic} is not registered in bag {self._path}; '
+                           'call add_topic first')
+        if isinstance(t_ns, bool) or not isinstance(t_ns, int) or t_ns < 0:
+            raise BagError(f'topic {topic}: t_ns must be a non-negative int [ns], got {t_ns!r}')
+        if not isinstance(raw, (bytes, bytearray, memoryview)):
+            raise BagError(f'topic {topic}: raw must be bytes, got {type(raw).__name__}')
+        if self._needs_rotation(t_ns):
+            self._guard_os('rotate segment of', self._rotate)
+        self._guard_os('write to', lambda: self._write(topic, t_ns, raw))
+
+    def close(self) -> None:
+        """Close the open segment, finalise metadata.yaml, remove the working directory.
+
+        Idempotent. An open segment without messages is removed rather than listed.
+        """
+        if self._is_closed:
+            return
+        self._is_closed = True
+        if self._failed is not None:
+            return
+        self._guard_os('close', self._finish)
+
+    def __enter__(self) -> 'SegmentedBagWriter':
+        return self
+
+    def __exit__(self, exc_type: Optional[type], exc: Optional[BaseException],
+                 tb: Optional[TracebackType]) -> None:
+        self.close()
+
+    # -- internals -------------------------------------------------------------------------------
+
+    def _check_writable(self) -> None:
+        if self._is_closed:
+            raise BagError(f'bag {self._path} is closed')
+        if self._failed is not None:
+            raise BagError(f'bag {self._path} stopped recording after an error: {self._failed}')
+
+    def _guard_os(self, action: str, func: Callable[[], None]) -> None:
+        """Run ``func``; an OSError aborts the open segment and becomes a BagError."""
+        try:
+            func()
+        except OSError as err:
+            self._failed = f'cannot {action} bag {self._path}: {_reason(err)}'
+            self._abort_segment()
+            raise BagError(self._failed) from err
+
+    def _work_dir(self) -> Path:
+        return self._path / WORKING_DIR
+
+    def _open_segment(self) -> None:
+        """Start a new segment in the working directory with all topics registered."""
+        work = self._work_dir()
+        if work.exists():
+            shutil.rmtree(work)
+        self._writer = Writer(work, version=BAG_VERSION, storage_plugin=StoragePlugin.MCAP)
+        self._writer.open()
+        self._connections = {}
+        self._seg_counts = {}
+        self._seg_bytes = 0
+        self._seg_start_ns = None
+        self._seg_end_ns = 0
+        for name in self._topics:
+            self._add_connection(name)
+
+    def _add_connection(self, name: str) -> None:
+        assert self._writer is not None
+        topic = self._topics[name]
+        conn = self._writer.add_connection(
+            name, topic.msgtype, typestore=self._typestore,
+            offered_qos_profiles=[offered_qos(topic.latched)])
+        self._connections[name] = conn
+        self._digests[name] = conn.digest
+        self._seg_counts[name] = 0
+
+    def _needs_rotation(self, t_ns: int) -> bool:
+        if self._seg_start_ns is None:
+            return False
+        if self._max_bytes is not None and self._seg_bytes >= self._max_bytes:
+            return True
+        return self._max_s is not None and t_ns - self._seg_start_ns >= self._max_s * 1e9
+
+    def _write(self, topic: str, t_ns: int, raw: Union[bytes, bytearray, memoryview]) -> None:
+        assert self._writer is not None
+        self._writer.write(self._connections[topic], t_ns, raw)
+        size = len(raw) + MCAP_MESSAGE_OVERHEAD
+        self._seg_counts[topic] += 1
+        self._seg_bytes += size
+        self._bytes_written += size
+        if self._seg_start_ns is None:
+            self._seg_start_ns = t_ns
+        self._seg_start_ns = min(self._seg_start_ns, t_ns)
+        self._seg_end_ns = max(self._seg_end_ns, t_ns)
+
+    def _rotate(self) -> None:
+        self._close_segment()
+        self._open_segment()
+
+    def _finish(self) -> None:
+        if self._seg_start_ns is None:
+            self._abort_segment()
+        else:
+            self._close_segment()
+        self._write_metadata()
+        shutil.rmtree(self._work_dir(), ignore_errors=True)
+
+    def _close_segment(self) -> None:
+        """Close the open segment, move its file into the bag and list it in metadata.yaml."""
+        assert self._writer is not None and self._seg_start_ns is not None
+        writer = self._writer
+        writer.close()
+        self._writer = None
+        source = writer.path / f'{writer.path.name}.mcap'
+        file_name = f'{self._path.name}_{len(self._closed)}.mcap'
+        with source.open('rb') as stream:
+            os.fsync(stream.fileno())
+        os.replace(source, self._path / file_name)
+        _fsync_dir(self._path)
+        self._closed.append(_Segment(file_name, self._seg_start_ns, self._seg_end_ns,
+                                     dict(self._seg_counts)))
+        self._seg_counts = {}
+        self._seg_start_ns = None
+        self._write_metadata()
+        shutil.rmtree(writer.path, ignore_errors=True)
+
+    def _abort_segment(self) -> None:
+        """Drop the open segment's writer without finishing its file (best effort)."""
+        writer, self._writer = self._writer, None
+        if writer is not None:
+            try:
+                writer.abort()
+            except OSError:
+                pass
+        self._seg_start_ns = None
+        if self._failed is None:
+            shutil.rmtree(self._work_dir(), ignore_errors=True)
+
+    def _closed_counts(self) -> dict[str, int]:
+        """Count messages per topic in the closed segments."""
+        counts = dict.fromkeys(self._topics, 0)
+        for segment in self._closed:
+            for name, count in segment.counts.items():
+                counts[name] += count
+        return counts
+
+    def _write_metadata(self) -> None:
+        """Rewrite metadata.yaml atomically to cover all closed segments."""
+        target = self._path / 'metadata.yaml'
+        temp = self._path / 'metadata.yaml.tmp'
+        with temp.open('w', encoding='utf8') as stream:
+            yaml = YAML(typ='safe')
+            yaml.default_flow_style = False
+            yaml.dump(self._metadata(), stream)
+            stream.flush()
+            os.fsync(stream.fileno())
+        os.replace(temp, target)
+        _fsync_dir(self._path)
+
+    def _metadata(self) -> dict:
+        """Build the rosbag2 metadata.yaml content of the closed segments."""
+        files = [_file_entry(segment) for segment in self._closed]
+        counts = self._closed_counts()
+        start = min((s.start_ns for s in self._closed), default=0)
+        end = max((s.end_ns for s in self._closed), default=0)
+        return {'rosbag2_bagfile_information': {
+            'version': BAG_VERSION,
+            'storage_identifier': 'mcap',
+            'relative_file_paths': [entry['path'] for entry in files],
+            'duration': {'nanoseconds': max(0, end - start)},
+            'starting_time': {'nanoseconds_since_epoch': start},
+            'message_count': sum(counts.values()),
+            'topics_with_message_count': [
+                {'topic_metadata': self._topic_metadata(name), 'message_count': counts[name]}
+                for name in self._topics],
+            'compression_format': '',
+            'compression_mode': '',
+            'files': files,
+            'custom_data': None,
+            'ros_distro': 'rosbags',
+        }}
+
+    def _topic_metadata(self, name: str) -> dict:
+        topic = self._topics[name]
+        return {
+            'name': name,
+            'type': topic.msgtype,
+            'serialization_format': 'cdr',
+            'offered_qos_profiles': dump_qos_v9([offered_qos(topic.latched)]),
+            'type_description_hash': self._digests.get(name, ''),
+        }
+
+
+def _file_entry(segment: _Segment) -> dict:
+    """Build the ``files:`` entry of one closed segment."""
+    return {
+        'path': segment.file_name,
+        'starting_time': {'nanoseconds_since_epoch': segment.start_ns},
+        'duration': {'nanoseconds': segment.end_ns - segment.start_ns},
+        'message_count': sum(segment.counts.values()),
+    }
+
+
+# -- reading -------------------------------------------------------------------------------------
+
+
+def _open_reader(path: PathLike) -> Reader:
+    """Open a rosbag2 bag (directory or single storage file) or raise BagError."""
+    bag = Path(path)
+    if not bag.exists():
+        raise BagError(f'bag {bag} does not exist')
+    try:
+        reader = Reader(bag)
+        reader.open()
+    except Exception as err:  # rosbags raises ReaderError, FileNotFoundError, KeyError, ...
+        raise BagError(f'{bag} is not a readable rosbag2 bag: {err}') from err
+    return reader
+
+
+def _is_latched(conn: Connection) -> bool:
+    ext = conn.ext
+    profiles = ext.offered_qos_profiles if isinstance(ext, ConnectionExtRosbag2) else []
+    return any(p.durability == QosDurability.TRANSIENT_LOCAL for p in profiles)
+
+
+def topic_list(topics: Iterable[str], shown: int = 6) -> str:
+    """Shorten a list of topic names to: the first ``shown``, then how many more."""
+    names = sorted(topics)
+    if not names:
+        return 'no topics'
+    more = f' and {len(names) - shown} more' if len(names) > shown else ''
+    return f'{len(names)} topics: {", ".join(names[:shown])}{more}'
+
+
+def bag_topics(path: PathLike) -> dict[str, tuple[str, bool]]:
+    """Topics of a bag: name -> (msgtype, latched), latched from the offered QoS durability."""
+    reader = _open_reader(path)
+    try:
+        return {conn.topic: (conn.msgtype, _is_latched(conn)) for conn in reader.connections}
+    finally:
+        reader.close()
+
+
+def _selected(reader: Reader, path: PathLike,
+              topics: Optional[Iterable[str]]) -> list[Connection]:
+    """Select the connections of the requested topics; BagError names unknown ones."""
+    if topics is None:
+        return list(reader.connections)
+    if isinstance(topics, str):
+        topics = [topics]
+    wanted = set(topics)
+    require_topics(path, {conn.topic for conn in reader.connections}, wanted)
+    return [conn for conn in reader.connections if conn.topic in wanted]
+
+
+def require_topics(path: PathLike, have: Iterable[str], wanted: Iterable[str]) -> None:
+    """Raise BagError naming every topic of ``wanted`` that the bag at ``path`` lacks."""
+    have = set(have)
+    if missing := sorted(set(wanted) - have):
+        raise BagError(f'bag {path} has no topic {", ".join(missing)}; '
+                       f'it has {topic_list(have)}')
+
+
+def _segment_files(path: Path) -> list[Path]:
+    """Storage files of a bag directory, from its metadata.yaml."""
+    info = YAML(typ='safe').load((path / 'metadata.yaml').read_text())
+    return [path / Path(name).name
+            for name in info['rosbag2_bagfile_information']['relative_file_paths']]
+
+
+def _segment_messages(file: Path, topics: set[str]) -> Iterator[Message]:
+    """Messages of one storage file, in time order."""
+    with Reader(file) as reader:
+        conns = [conn for conn in reader.connections if conn.topic in topics]
+        if not conns:
+            return
+        for conn, t_ns, raw in reader.messages(connections=conns):
+            yield conn.topic, conn.msgtype, t_ns, bytes(raw)
+
+
+def read_messages(path: PathLike, topics: Optional[Iterable[str]] = None) -> Iterator[Message]:
+    """Messages of a bag as ``(topic, msgtype, t_ns, raw)`` in time order over all segments.
+
+    ``t_ns`` is the recorded time [ns], ``raw`` the CDR bytes. ``topics`` restricts the
+    topics; a name the bag does not have raises BagError (before the first message), as does a
+    path that is not a bag. rosbags reads a split bag segment after segment, so uncompressed
+    MCAP segments are merged by timestamp here, in case late messages made them overlap.
+    """
+    reader = _open_reader(path)
+    try:
+        conns = _selected(reader, path, topics)
+        bag = Path(path)
+        files = _segment_files(bag) if bag.is_dir() else [bag]
+        mergeable = (not reader.compression_mode
+                     and all(file.suffix == '.mcap' for file in files))
+    except BaseException:
+        reader.close()
+        raise
+    return _iterate(reader, conns, files if mergeable and len(files) > 1 else None)
+
+
+def _iterate(reader: Reader, conns: list[Connection],
+             files: Optional[list[Path]]) -> Iterator[Message]:
+    try:
+        if not conns:
+            return
+        if files is None:
+            for conn, t_ns, raw in reader.messages(connections=conns):
+                yield conn.topic, conn.msgtype, t_ns, bytes(raw)
+            return
+        names = {conn.topic for conn in conns}
+        yield from heapq.merge(*(_segment_messages(file, names) for file in files),
+                               key=lambda message: message[2])
+    finally:
+        reader.close()

@@ -1,0 +1,64 @@
+"""The setpoint guard: validation, last-valid hold, watchdog and safe behaviour."""
+
+import math
+
+import numpy as np
+import pytest
+
+from flectofold_model.control.setpoint_guard import SafeBehaviour, SetpointGuard, SetpointState
+
+
+@pytest.mark.parametrize('value, reason', [
+    (math.nan, 'NaN'), (math.inf, 'inf'), (-math.inf, '-inf'), (1.5, 'outside [0, 1]'),
+    (-0.01, 'outside [0, 1]'), ('0.5', 'must be a number'), (True, 'must be a number'),
+    (None, 'must be a number')])
+def test_bad_setpoints_are_refused_and_the_last_valid_one_holds(value, reason):
+    guard = SetpointGuard(timeout_s=10.0)
+    assert guard.offer(0.4, now_s=1.0) is None
+    assert reason in guard.offer(value, now_s=2.0)
+    assert guard.rejected == 1 and reason in guard.last_rejection
+    assert guard.command(3.0) == (0.4, SetpointState.TRACKING)
+
+
+def test_numpy_and_integer_setpoints_are_numbers():
+    guard = SetpointGuard(timeout_s=10.0)
+    assert guard.offer(np.float64(0.25), 0.0) is None
+    assert guard.offer(1, 0.0) is None
+    assert guard.command(0.0)[0] == 1.0
+
+
+def test_waiting_holds_the_initial_closure_until_the_timeout():
+    guard = SetpointGuard(timeout_s=5.0, safe_behaviour=SafeBehaviour.HOLD, initial_closure=0.3)
+    assert guard.command(100.0) == (0.3, SetpointState.WAITING)
+    assert guard.command(105.0) == (0.3, SetpointState.WAITING)
+    assert guard.command(105.1) == (0.3, SetpointState.TIMED_OUT)
+
+
+@pytest.mark.parametrize('behaviour, expected', [(SafeBehaviour.VENT, 0.0),
+                                                 (SafeBehaviour.HOLD, 0.8)])
+def test_timeout_starts_the_safe_behaviour_and_a_fresh_setpoint_ends_it(behaviour, expected):
+    guard = SetpointGuard(timeout_s=5.0, safe_behaviour=behaviour)
+    guard.offer(0.8, 10.0)
+    assert guard.command(15.0) == (0.8, SetpointState.TRACKING)
+    assert guard.command(15.5) == (expected, SetpointState.TIMED_OUT)
+    guard.offer(math.nan, 16.0)  # a bad setpoint is no sign of life
+    assert guard.command(16.0) == (expected, SetpointState.TIMED_OUT)
+    guard.offer(0.6, 17.0)
+    assert guard.command(17.0) == (0.6, SetpointState.TRACKING)
+
+
+def test_a_clock_that_goes_back_restarts_the_watchdog():
+    guard = SetpointGuard(timeout_s=5.0)
+    guard.offer(0.5, 1000.0)
+    assert guard.command(900.0) == (0.5, SetpointState.TRACKING)
+    assert guard.command(906.0)[1] is SetpointState.TIMED_OUT
+
+
+@pytest.mark.parametrize('options, message', [
+    ({'timeout_s': 0.0}, 'timeout_s must be positive'),
+    ({'timeout_s': math.nan}, 'timeout_s'),
+    ({'timeout_s': 1.0, 'safe_behaviour': 'explode'}, 'explode'),
+    ({'timeout_s': 1.0, 'initial_closure': 2.0}, 'initial_closure')])
+def test_bad_configuration_is_refused(options, message):
+    with pytest.raises(ValueError, match=message):
+        SetpointGuard(**options)

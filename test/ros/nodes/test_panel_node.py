@@ -1,0 +1,211 @@
+"""A panel node as its own process over DDS: setpoints, feedback, bad input, watchdog."""
+
+import math
+from pathlib import Path
+import time
+
+from diagnostic_msgs.msg import DiagnosticStatus
+import numpy as np
+import pytest
+from ros_graph import domain_for, Graph
+from std_msgs.msg import Float64
+from std_srvs.srv import Trigger
+
+from flectofold_model.actuation import actuated_like, ActuationModel, CushionMap
+from flectofold_model.facade.description import load_facade
+from flectofold_ros import contract
+from flectofold_ros.interfaces import client, publisher, subscription
+
+PANEL = 'r02c03'
+NS = contract.panel_namespace(PANEL)
+pytestmark = pytest.mark.graph
+
+
+class PanelProbe:
+    """Publishes setpoints to one panel and keeps everything it says."""
+
+    def __init__(self, graph):
+        node = graph.node
+        self.graph = graph
+        self.setpoint = publisher(node, contract.SETPOINT.of(PANEL))
+        self.pressure, self.joints, self.closure, self.status, self.diagnostics = \
+            [], [], [], [], []
+        self.pressure_times = []
+        # A sensor-data (best effort) subscriber is compatible with the reliable stream.
+        subscription(node, contract.PRESSURE.of(PANEL), self._on_pressure, contract.SENSOR_DATA)
+        subscription(node, contract.JOINT_STATES.of(PANEL), self.joints.append)
+        subscription(node, contract.CLOSURE.of(PANEL), lambda m: self.closure.append(m.data))
+        subscription(node, contract.STATUS.of(PANEL), lambda m: self.status.append(m.data))
+        subscription(node, contract.DIAGNOSTICS, self._on_diagnostics)
+        self.reset = client(node, contract.reset_faults_service(PANEL), contract.RESET_FAULTS_TYPE)
+
+    def _on_pressure(self, message):
+        self.pressure.append(message)
+        self.pressure_times.append(time.monotonic())
+
+    def _on_diagnostics(self, message):
+        self.diagnostics += [s for s in message.status if s.hardware_id == PANEL]
+
+    def send(self, value):
+        self.setpoint.publish(Float64(data=value))
+
+    def hold(self, value, condition, timeout_s):
+        """Keep sending ``value`` at 5 Hz until ``condition()``."""
+        deadline = time.monotonic() + timeout_s
+        while time.monotonic() < deadline:
+            self.send(value)
+            if self.graph.spin_until(condition, 0.2):
+                return True
+        return False
+
+
+@pytest.fixture(scope='module')
+def model():
+    facade = load_facade()
+    actuation = ActuationModel([actuated_like(facade.panels[facade.panel_ids.index(PANEL)])])
+    return actuation, CushionMap(actuation)
+
+
+@pytest.fixture(scope='module')
+def panel():
+    graph = Graph(domain_for(0))
+    process = graph.start('panel_node', '--ros-args', '-r', f'__ns:={NS}',
+                          '-p', 'setpoint_timeout_s:=3.0')
+    probe = PanelProbe(graph)
+    assert graph.spin_until(lambda: probe.status and probe.pressure, 30.0), \
+        graph.stop(process)[1]
+    yield graph, process, probe
+    code, output = graph.stop(process)
+    graph.close()
+    assert code == 0, output
+
+
+def test_a_setpoint_from_another_process_moves_pressure_and_fold_angle(panel, model):
+    graph, process, probe = panel
+    actuation, cushion_map = model
+    target = 0.4
+    assert probe.hold(target, lambda: probe.closure and abs(probe.closure[-1] - target) < 0.01
+                      and probe.status[-1] == 'tracking', 40.0), probe.closure[-5:]
+    graph.spin_for(1.0)
+    expected_pa = 101325.0 + cushion_map.pressure_for_closure(np.array([target]))[0]
+    assert probe.pressure[-1].fluid_pressure == pytest.approx(expected_pa, abs=120.0)
+    assert probe.pressure[-1].header.frame_id == PANEL
+    joints = probe.joints[-1]
+    assert list(joints.name) == [f'{PANEL}_flap_left', f'{PANEL}_flap_right']
+    angle = actuation.fold.state_from_closure(probe.closure[-1]).apex_fold_angle_rad[0]
+    np.testing.assert_allclose(joints.position, [angle, angle], rtol=2e-3)
+    assert angle > actuation.fold.open_fold_angle_rad[0] + 0.1
+
+
+def test_bad_setpoints_are_rejected_and_the_loop_keeps_its_timing(panel):
+    graph, process, probe = panel
+    holding = probe.closure[-1]
+    probe.pressure_times.clear()
+    probe.diagnostics.clear()
+    flood_start = time.monotonic()
+    bad = [math.nan, math.inf, -math.inf, 1.5, -0.2]
+    sent, last_valid = 0, 0.0
+    while time.monotonic() - flood_start < 4.0:
+        if time.monotonic() - last_valid > 0.5:  # a live commander between the bad ones
+            probe.send(0.4)
+            last_valid = time.monotonic()
+        for value in bad:
+            probe.send(value)
+        sent += len(bad)
+        graph.spin_for(0.01)
+    graph.spin_for(0.5)
+    intervals = np.diff(probe.pressure_times)
+    assert sent > 500
+    assert len(intervals) > 25
+    assert np.median(intervals) == pytest.approx(0.1, abs=0.02)  # publish_rate_hz 10
+    assert intervals.max() < 0.5
+    assert abs(probe.closure[-1] - holding) < 0.02
+    warnings = [s for s in probe.diagnostics if s.level == DiagnosticStatus.WARN]
+    assert warnings and 'rejected' in warnings[0].message
+    values = {kv.key: kv.value for kv in probe.diagnostics[-1].values}
+    assert int(values['setpoints_rejected']) >= sent * 0.9
+    assert probe.diagnostics[-1].name == f'{NS}/panel: pressure loop'
+
+
+def test_no_setpoint_for_the_timeout_vents_the_panel_open(panel):
+    graph, process, probe = panel
+    assert graph.spin_until(lambda: probe.status[-1] == 'setpoint_timeout', 10.0)
+    assert graph.spin_until(lambda: probe.closure[-1] < 0.01, 20.0), probe.closure[-3:]
+    assert probe.hold(0.2, lambda: probe.status[-1] == 'tracking', 5.0)
+
+
+def test_reset_faults_service_answers(panel):
+    graph, process, probe = panel
+    assert probe.reset.wait_for_service(timeout_sec=5.0)
+    future = probe.reset.call_async(Trigger.Request())
+    assert graph.spin_until(future.done, 5.0)
+    assert future.result().success and future.result().message == 'no fault'
+
+
+@pytest.mark.parametrize('arguments, message', [
+    (['-p', 'control_period_s:=5.0'], 'control_period_s'),
+    (['-p', 'safe_behaviour:=explode'], 'safe_behaviour'),
+    (['-p', 'control.time_constant_s:=0.1'], 'at least twice'),
+    (['-p', 'control_period_s:=1'], 'control_period_s'),
+])
+def test_bad_parameters_are_refused_with_a_reason(arguments, message):
+    graph = Graph(domain_for(1))
+    try:
+        process = graph.start('panel_node', '--ros-args', '-r', f'__ns:={NS}', *arguments)
+        code, output = process.wait(timeout=30.0), process.stdout.read()
+    finally:
+        graph.close()
+    assert code == 2, output
+    assert message in output and 'Traceback' not in output
+
+
+@pytest.mark.parametrize('arguments, message', [
+    ([], 'not of the form rNNcNN'),
+    (['-r', '__ns:=/facade/r09c09'], 'unknown panel id'),
+])
+def test_a_panel_needs_a_known_id(arguments, message):
+    graph = Graph(domain_for(1))
+    try:
+        process = graph.start('panel_node', '--ros-args', *arguments)
+        code, output = process.wait(timeout=30.0), process.stdout.read()
+    finally:
+        graph.close()
+    assert code == 2 and message in output, output
+
+
+def test_a_refused_runtime_change_leaves_every_parameter_as_it_was():
+    from rclpy.parameter import Parameter
+
+    from flectofold_ros.nodes.panel import PanelNode
+    graph = Graph(domain_for(4))
+    try:
+        node = PanelNode(PANEL, context=graph.context)
+        results = node.set_parameters_atomically([Parameter('setpoint_timeout_s', value=5.0),
+                                                  Parameter('safe_behaviour', value='explode')])
+        assert not results.successful and 'explode' in results.reason
+        assert node.guard.timeout_s == 10.0
+        assert node.get_parameter('setpoint_timeout_s').value == 10.0
+        assert node.set_parameters_atomically([Parameter('setpoint_timeout_s', value=5.0),
+                                               Parameter('safe_behaviour', value='hold')]
+                                              ).successful
+        assert node.guard.timeout_s == 5.0 and node.guard.safe_behaviour.value == 'hold'
+        node.destroy_node()
+    finally:
+        graph.close()
+
+
+def test_the_example_parameter_file_starts_a_panel():
+    config = Path(__file__).resolve().parents[3] / 'config' / 'panel.yaml'
+    graph = Graph(domain_for(5))
+    try:
+        process = graph.start('panel_node', '--ros-args', '-r', f'__ns:={NS}',
+                              '--params-file', str(config))
+        probe = PanelProbe(graph)
+        assert graph.spin_until(lambda: probe.status and probe.diagnostics, 30.0), \
+            graph.stop(process)[1]
+        values = {kv.key: kv.value for kv in probe.diagnostics[-1].values}
+        assert probe.status[-1] == 'waiting_for_setpoint' and values['fault'] == 'none'
+        code, output = graph.stop(process)
+    finally:
+        graph.close()
+    assert code == 0, output

@@ -1,0 +1,84 @@
+"""The one start-up and stop policy of every executable, in-process (flectofold_ros.runner)."""
+
+import os
+import signal
+import time
+
+import pytest
+
+from flectofold_ros.runner import Interrupted, run_command, StopSignals
+
+
+def deliver(number=signal.SIGINT):
+    """Send a signal to this process and give Python the moment to run its handler."""
+    os.kill(os.getpid(), number)
+    time.sleep(0.05)
+
+
+def test_bad_input_is_one_line_and_exit_code_2(capsys):
+    def body(stop):
+        raise ValueError('parameter speed=7 must lie in [0, 1]')
+    assert run_command('thing', body) == 2
+    captured = capsys.readouterr()
+    assert captured.err == 'thing: parameter speed=7 must lie in [0, 1]\n'
+    assert 'Traceback' not in captured.out + captured.err
+
+
+def test_extra_bad_input_types_and_the_body_s_own_code(capsys):
+    class Refused(Exception):
+        pass
+
+    def body(stop):
+        raise Refused('no such bag')
+    assert run_command('thing', body, bad_input=(Refused,)) == 2
+    assert run_command('thing', lambda stop: 7) == 7
+    assert run_command('thing', lambda stop: None) == 0
+
+
+def test_a_real_error_is_not_hidden():
+    def body(stop):
+        raise KeyError('a bug')
+    with pytest.raises(KeyError):
+        run_command('thing', body)
+
+
+@pytest.mark.parametrize('number', [signal.SIGINT, signal.SIGTERM])
+def test_a_signal_while_starting_abandons_the_start(number):
+    reached = []
+
+    def body(stop):
+        deliver(number)
+        reached.append('after the signal')  # never: the start is abandoned
+    assert run_command('thing', body, interrupted_code=130) == 130
+    assert not reached
+
+
+def test_a_signal_while_running_asks_to_stop_and_the_close_is_not_cut_short():
+    closed = []
+
+    def body(stop):
+        stop.running()
+        deliver()
+        assert stop.requested
+        stop.closing()
+        deliver()  # a second Ctrl-C while closing: ignored
+        deliver(signal.SIGTERM)
+        closed.append(len(stop.received))
+        return None
+    assert run_command('thing', body, interrupted_code=130) == 130
+    assert closed == [3]
+
+
+def test_handlers_are_put_back_and_an_ignored_signal_stays_ignored():
+    before = signal.getsignal(signal.SIGTERM)
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        with StopSignals() as stop:
+            deliver(signal.SIGINT)  # ignored, as the parent wanted (nohup, a background job)
+            assert not stop.requested
+            with pytest.raises(Interrupted):
+                deliver(signal.SIGTERM)
+        assert signal.getsignal(signal.SIGINT) is signal.SIG_IGN
+        assert signal.getsignal(signal.SIGTERM) is before
+    finally:
+        signal.signal(signal.SIGINT, previous)

@@ -1,0 +1,119 @@
+"""Every executable stopped by a signal as a terminal sends it: to its whole process group.
+
+Ctrl-C in a terminal sends SIGINT to every process of the foreground group at once; a service
+manager sends SIGTERM. At any moment, loading or running, an executable must exit cleanly:
+its exit code, no traceback, no ``[FATAL]`` line, no process of its group left behind.
+"""
+
+import os
+from pathlib import Path
+import signal
+import subprocess
+import time
+
+import pytest
+from ros_graph import BIN, domain_for
+from rosbags.rosbag2 import Reader
+
+from flectofold_ros import contract
+from flectofold_ros.recording.bag_segments import SegmentedBagWriter
+
+pytestmark = pytest.mark.graph
+#: Seconds after the start: still loading (imports, models), and up and running.
+MOMENTS_S = (0.4, 4.0)
+
+
+@pytest.fixture(scope='module')
+def long_bag(tmp_path_factory):
+    """Write a bag of two /clock messages an hour apart: replay still plays when stopped."""
+    from rosbags.typesys import get_typestore, Stores
+    store = get_typestore(Stores.ROS2_JAZZY)
+    path = tmp_path_factory.mktemp('bags') / 'hour'
+    with SegmentedBagWriter(path) as writer:
+        writer.add_topic(contract.CLOCK.name, contract.CLOCK.msgtype)
+        for t_s in (1.0, 3601.0):
+            message = store.types['rosgraph_msgs/msg/Clock'](
+                clock=store.types['builtin_interfaces/msg/Time'](sec=int(t_s), nanosec=0))
+            writer.write(contract.CLOCK.name, int(t_s * 1e9),
+                         store.serialize_cdr(message, 'rosgraph_msgs/msg/Clock').tobytes())
+    return path
+
+
+def arguments(name, tmp_path, small_facade, long_bag):
+    return {
+        'panel_node': ['--ros-args', '-r', '__ns:=/facade/r00c00'],
+        'panel_group': ['--panels', 'r00c00,r00c01'],
+        'sun_position_node': ['--ros-args', '-p', 'mode:=simulated'],
+        'coordinator_node': [],
+        'rerun_bridge': ['--ros-args', '-p', 'viewer:=none', '-p',
+                         f'rrd_path:={tmp_path / "x.rrd"}'],
+        'bag_recorder': ['--ros-args', '-p', f'output:={tmp_path / "bag"}'],
+        'replay': [str(long_bag)],
+        'facade': ['--facade', str(small_facade), '--speedup', '60', '--panel-processes', '1',
+                   '--record', '--rerun', 'none', '--out', str(tmp_path / 'out')],
+        'day_report': ['--out', str(tmp_path)],
+    }[name]
+
+
+#: Exit code when stopped: nodes end as asked (0); a day or a report was cut short (130).
+EXPECTED = {'facade': 130, 'day_report': 130}
+
+
+@pytest.fixture
+def small_facade(tmp_path, small_facade_text):
+    path = tmp_path / 'small.yaml'
+    path.write_text(small_facade_text('shading_target: 0.9'))
+    return path
+
+
+def run_and_signal(command, delay_s, number, environment):
+    process = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
+                               text=True, env=environment, start_new_session=True)
+    time.sleep(delay_s)
+    os.killpg(process.pid, number)
+    try:
+        output, _ = process.communicate(timeout=60)
+    except subprocess.TimeoutExpired:
+        os.killpg(process.pid, signal.SIGKILL)
+        output, _ = process.communicate()
+        pytest.fail(f'{command[0]} did not stop within 60 s of the signal:\n{output}')
+    survivors = subprocess.run(['pgrep', '-g', str(process.pid)], capture_output=True,
+                               text=True).stdout.split()
+    if survivors:
+        os.killpg(process.pid, signal.SIGKILL)
+    return process.returncode, output, survivors
+
+
+@pytest.mark.parametrize('delay_s', MOMENTS_S)
+@pytest.mark.parametrize('name', ['panel_node', 'panel_group', 'sun_position_node',
+                                  'coordinator_node', 'rerun_bridge', 'bag_recorder', 'replay',
+                                  'facade', 'day_report'])
+def test_ctrl_c_to_the_group_exits_cleanly_at_any_moment(name, delay_s, tmp_path, small_facade,
+                                                         long_bag):
+    environment = dict(os.environ, ROS_DOMAIN_ID=str(domain_for(30)), PYTHONUNBUFFERED='1',
+                       RCUTILS_COLORIZED_OUTPUT='0')
+    command = [str(BIN / name), *arguments(name, tmp_path, small_facade, long_bag)]
+    code, output, survivors = run_and_signal(command, delay_s, signal.SIGINT, environment)
+    assert code == EXPECTED.get(name, 0), output
+    for word in ('Traceback', 'FATAL', 'KeyboardInterrupt'):
+        assert word not in output, output
+    assert not survivors, output
+    if name == 'bag_recorder' and (tmp_path / 'bag').exists():
+        with Reader(tmp_path / 'bag') as reader:  # a bag that was begun is a valid bag
+            assert reader.message_count >= 0
+
+
+def test_sigterm_to_the_group_as_a_service_manager_stops_it(tmp_path, small_facade, long_bag):
+    environment = dict(os.environ, ROS_DOMAIN_ID=str(domain_for(31)), PYTHONUNBUFFERED='1')
+    command = [str(BIN / 'panel_group'), '--panels', 'r00c00,r00c01']
+    code, output, survivors = run_and_signal(command, 5.0, signal.SIGTERM, environment)
+    assert code == 0 and 'Traceback' not in output and not survivors, output
+
+
+def test_python_m_flectofold_ros_runs_an_executable():
+    run = subprocess.run([str(Path(BIN) / 'python'), '-m', 'flectofold_ros', 'fold_table',
+                          '--steps', '2'], capture_output=True, text=True, timeout=60)
+    assert run.returncode == 0 and 'closure' in run.stdout, run.stderr
+    wrong = subprocess.run([str(Path(BIN) / 'python'), '-m', 'flectofold_ros', 'nonsense'],
+                           capture_output=True, text=True, timeout=60)
+    assert wrong.returncode == 2 and 'usage' in wrong.stderr
