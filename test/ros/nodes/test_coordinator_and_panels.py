@@ -19,6 +19,12 @@ SUN_PATH = Path(__file__).parents[2] / 'data' / 'sun_path_stuttgart_2026-06-21.c
 CONTROL = 'period_s: 60.0, shading_target: 0.9, min_dwell_s: 300.0, default_closure: 1.0'
 pytestmark = pytest.mark.graph
 LEAD_S = 5.0  # each sun vector is published this long before its minute
+FOLLOW_S = 2.0  # the clock waits for panels whose last state is older than this
+FOLLOW_TIMEOUT_S = 10.0  # ... for at most this long of wall time per tick
+
+
+def seconds(time):
+    return time.sec + time.nanosec * 1e-9
 
 
 def stamp(epoch_s):
@@ -37,7 +43,10 @@ class SimulatedDay:
         self.setpoints = {p: [] for p in panel_ids}
         self.closure = {p: [] for p in panel_ids}
         self.status = {p: [] for p in panel_ids}
+        self.state_s = dict.fromkeys(panel_ids)
         for p in panel_ids:
+            subscription(node, contract.PRESSURE.of(p),
+                         lambda m, p=p: self.state_s.update({p: seconds(m.header.stamp)}))
             subscription(node, contract.SETPOINT.of(p),
                          lambda m, p=p: self.setpoints[p].append(m.data))
             subscription(node, contract.CLOSURE.of(p),
@@ -47,9 +56,16 @@ class SimulatedDay:
         self.now_s = None
 
     def tick(self, epoch_s, wall_s=0.01):
+        """Advance the clock, then let the panels catch up with it (a loaded machine runs them
+        slower than the clock; a test of control must not become a test of CPU speed)."""
         self.now_s = epoch_s
         self.clock.publish(Clock(clock=stamp(epoch_s)))
         self.graph.spin_for(wall_s)
+        self.graph.spin_until(self._panels_follow, FOLLOW_TIMEOUT_S)
+
+    def _panels_follow(self):
+        times = self.state_s.values()
+        return None in times or min(times) >= self.now_s - FOLLOW_S
 
     def publish_sun(self, epoch_s, vector):
         message = Vector3Stamped()
@@ -100,8 +116,7 @@ def day(small_facade, recorded_sun):
         graph.spin_for(0.05)
         simulated.run(epoch, 1.0)
     commanded = {p: values[-1] for p, values in simulated.setpoints.items()}
-    # The panels' loops integrate every period however far behind the clock they are: run the
-    # clock on slowly until they have caught up with the last commands (or 10 min have passed).
+    # Run the clock on until the panels have reached the last commands (or 10 min have passed).
     simulated.run(epochs[-1] + 600.0, 1.0, wall_s=0.05, condition=lambda: all(
         simulated.closure[p] and abs(simulated.closure[p][-1] - commanded[p]) < 0.02
         for p in facade.panel_ids))
