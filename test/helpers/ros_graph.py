@@ -2,9 +2,11 @@
 
 import os
 from pathlib import Path
+import queue
 import signal
 import subprocess
 import sys
+import threading
 import time
 
 import rclpy
@@ -39,8 +41,39 @@ class Graph:
         process = subprocess.Popen([str(BIN / executable), *arguments], env=self.env,
                                    stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
                                    start_new_session=group)
+        process.flectofold_group = group
         self.processes.append(process)
         return process
+
+    @staticmethod
+    def read_until(process, condition, timeout_s):
+        """Read ``process``'s output lines until ``condition(line)`` or ``timeout_s``; return them.
+
+        A reader thread keeps the wait bounded: a process that falls silent (or whose children
+        keep its output open after it ended) cannot hang the test.
+        """
+        lines = queue.Queue()
+
+        def read():
+            for line in process.stdout:
+                lines.put(line)
+                if condition(line):
+                    break
+            lines.put(None)
+
+        threading.Thread(target=read, daemon=True).start()
+        deadline, read_lines = time.monotonic() + timeout_s, []
+        while (left := deadline - time.monotonic()) > 0:
+            try:
+                line = lines.get(timeout=left)
+            except queue.Empty:
+                break
+            if line is None:
+                break
+            read_lines.append(line)
+            if condition(line):
+                break
+        return read_lines
 
     def spin_until(self, condition, timeout_s):
         """Spin the probe until ``condition()`` holds; return whether it did."""
@@ -59,9 +92,7 @@ class Graph:
         try:
             output, _ = process.communicate(timeout=timeout_s)
         except subprocess.TimeoutExpired:
-            process.kill()
-            output, _ = process.communicate()
-            return None, output
+            return None, _kill(process)
         return process.returncode, output
 
     @staticmethod
@@ -72,11 +103,43 @@ class Graph:
     def close(self):
         for process in self.processes:
             if process.poll() is None:
-                process.kill()
-            process.communicate()
+                _kill(process)
+            try:
+                process.communicate(timeout=10)
+            except subprocess.TimeoutExpired:  # orphans of a process that died hold its pipe
+                _kill(process)
         self.node.destroy_node()  # before the executor's shutdown, which forgets its nodes
         self.executor.shutdown()
         rclpy.try_shutdown(context=self.context)
+
+
+def _kill(process):
+    """SIGKILL ``process`` and every process under it; return what it printed.
+
+    Its children would otherwise live on (orphans keep running and hold its output pipe
+    open, so reading that pipe to its end would never return).
+    """
+    for pid in [*_descendants(process.pid), process.pid]:
+        try:
+            os.kill(pid, signal.SIGKILL)
+        except ProcessLookupError:
+            pass
+    if process.flectofold_group:
+        try:
+            os.killpg(process.pid, signal.SIGKILL)
+        except ProcessLookupError:
+            pass
+    try:
+        output, _ = process.communicate(timeout=10)
+    except subprocess.TimeoutExpired:  # an orphan it left before this call holds the pipe
+        output = ''
+    return output
+
+
+def _descendants(pid):
+    listing = subprocess.run(['pgrep', '-P', str(pid)], capture_output=True, text=True)
+    children = [int(child) for child in listing.stdout.split()]
+    return [grandchild for child in children for grandchild in _descendants(child)] + children
 
 
 def domain_for(offset):

@@ -67,12 +67,7 @@ def test_a_signal_to_the_whole_group_stops_everything_and_keeps_the_outputs(
                               '--panel-processes', '1', '--progress-period', '1',
                               '--record', '--rerun', 'none', '--out', str(tmp_path / 'out'),
                               group=True)
-        started = time.monotonic()
-        lines = []
-        for line in bringup.stdout:
-            lines.append(line)
-            if '| closure' in line or time.monotonic() - started > 120:
-                break
+        lines = graph.read_until(bringup, lambda line: '| closure' in line, 120.0)
         for sig in signals:  # as a terminal sends it: to the bringup and all its children
             graph.signal_group(bringup, sig)
             time.sleep(0.3)
@@ -96,13 +91,12 @@ def test_ctrl_c_to_the_bringup_alone_stops_its_children_too(small_facade_file, t
         bringup = graph.start('facade', '--facade', str(small_facade_file), '--speedup', '60',
                               '--panel-processes', '1', '--progress-period', '1', '--record',
                               '--out', str(tmp_path / 'out'))
-        for line in bringup.stdout:
-            if '| closure' in line:
-                break
+        lines = graph.read_until(bringup, lambda line: '| closure' in line, 120.0)
         bringup.send_signal(signal.SIGINT)
         output, _ = bringup.communicate(timeout=180)
     finally:
         graph.close()
+    output = ''.join(lines) + output
     assert bringup.returncode == 130 and 'Traceback' not in output, output
     assert not children_of(small_facade_file)
     bag_is_complete((tmp_path / 'out' / 'latest').resolve() / 'bag')

@@ -56,8 +56,11 @@ class SimulatedDay:
         self.now_s = None
 
     def tick(self, epoch_s, wall_s=0.01):
-        """Advance the clock, then let the panels catch up with it (a loaded machine runs them
-        slower than the clock; a test of control must not become a test of CPU speed)."""
+        """Advance the clock, then let the panels catch up with it.
+
+        A loaded machine runs them slower than the clock: a test of control must not become
+        a test of CPU speed.
+        """
         self.now_s = epoch_s
         self.clock.publish(Clock(clock=stamp(epoch_s)))
         self.graph.spin_for(wall_s)
