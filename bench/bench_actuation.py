@@ -16,6 +16,8 @@ from flectofold_model.actuation import (ActuationModel, CushionMap, DEMONSTRATOR
 from flectofold_model.control.loop_simulation import simulate, step_metrics
 from flectofold_model.control.pressure_loop import PressureController
 
+STEPPING = {False: 'fixed', True: 'adaptive'}  # the RK4 plant's two sub-step rules
+
 
 def presets():
     model = ActuationModel([DEMONSTRATOR_ACTUATED, FLECTOLINE_ACTUATED])
@@ -106,24 +108,25 @@ def plant_speed(count=36, period_s=0.1, hold_s=10.0, fill_s=15.0, repeats=2):
 
     for closure in (1.0, 0.5):
         controller = PressureController(table, DEMONSTRATOR_PLANT)
-        plant = PneumaticPlant(DEMONSTRATOR_PLANT, table, count, seed=2, adaptive_step=True)
+        plant = PneumaticPlant(DEMONSTRATOR_PLANT, table, count, seed=2, integrator='adaptive')
         simulate(controller, plant, closure, 20.0, period_s)  # fill and settle, untimed
 
         def held(adaptive, controller=controller, gauge=plant.gauge_pressure_pa):
             return copy.deepcopy(controller), PneumaticPlant(
-                DEMONSTRATOR_PLANT, table, count, seed=3, adaptive_step=adaptive,
+                DEMONSTRATOR_PLANT, table, count, seed=3, integrator=STEPPING[adaptive],
                 initial_gauge_pa=gauge)
 
         compare(f'(a) hold at closure {closure:g}', held, closure, hold_s)
 
     def vented(adaptive):
         return (PressureController(table, DEMONSTRATOR_PLANT),
-                PneumaticPlant(DEMONSTRATOR_PLANT, table, count, seed=3, adaptive_step=adaptive))
+                PneumaticPlant(DEMONSTRATOR_PLANT, table, count, seed=3,
+                               integrator=STEPPING[adaptive]))
 
     compare('(b) full fill 0 -> 1', vented, 1.0, fill_s)
 
     def shut(adaptive):
-        plant = PneumaticPlant(DEMONSTRATOR_PLANT, table, count, adaptive_step=adaptive,
+        plant = PneumaticPlant(DEMONSTRATOR_PLANT, table, count, integrator=STEPPING[adaptive],
                                initial_gauge_pa=5e3)
         for _ in range(round(hold_s / period_s)):
             plant.step(period_s, 0.0, 0.0)

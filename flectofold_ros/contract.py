@@ -159,3 +159,5 @@ RECORDED_BY_DEFAULT = (f'{FACADE_NAMESPACE}/**', DIAGNOSTICS.name, CLOCK.name)
 #: ``/diagnostics`` keys of a panel's status whose values are cumulative counts, for summaries.
 DIAGNOSTIC_FREE_AIR_NL = 'free_air_used_nl'
 DIAGNOSTIC_SETPOINTS_REJECTED = 'setpoints_rejected'
+#: ``/diagnostics`` key of a panel's status: how far its simulation is behind the clock [s].
+DIAGNOSTIC_BEHIND_S = 'behind_by_s'

@@ -146,7 +146,8 @@ def imported_modules(path, lazy=True):
 
 #: Top-level module -> rosdep key of the package that provides it.
 ROSDEP_KEYS = {
-    'numpy': 'python3-numpy', 'scipy': 'python3-scipy', 'pandas': 'python3-pandas',
+    'numpy': 'python3-numpy', 'scipy': 'python3-scipy', 'numba': 'python3-numba',
+    'pandas': 'python3-pandas',
     'yaml': 'python3-yaml', 'ruamel': 'python3-ruamel.yaml', 'matplotlib': 'python3-matplotlib',
     'rosbags': 'python3-rosbags-pip', 'pvlib': 'python3-pvlib-pip',
     'rerun': 'python3-rerun-sdk-pip', 'rerun_cli': 'python3-rerun-sdk-pip',

@@ -1,7 +1,8 @@
 """The static actuation map as a table, cheap enough for a plant's inner loop.
 
 :class:`CushionMap` samples an :class:`~.statics.ActuationModel` at states evenly spaced in
-closure and interpolates volume, compliance, pressure and closure between them.
+closure and interpolates volume, compliance, pressure and closure between them. Panels of the
+same module geometry and build share one table: it is computed once per distinct panel.
 """
 
 import numpy as np
@@ -26,23 +27,25 @@ class CushionMap:
             raise TypeError(f'CushionMap needs an ActuationModel, got {type(model).__name__}')
         if isinstance(samples, bool) or not isinstance(samples, int) or samples < 3:
             raise ValueError(f'samples must be an integer of at least 3, got {samples!r}')
-        closures = np.linspace(0.0, 1.0, samples)
-        k = np.stack([model.fold.state_from_closure(c).elastica_k for c in closures], axis=1)
-        step = DERIVATIVE_STEP
-        index = np.repeat(model._all, samples)
-        flat_k = k.ravel()
-        pressure = model._pressure(flat_k, index).reshape(k.shape)
-        volume = model._volume(flat_k, index).reshape(k.shape)
-        pressure_rate = (model._pressure(flat_k + step, index)
-                         - model._pressure(flat_k - step, index)).reshape(k.shape) / (2 * step)
-        volume_rate = (model._volume(flat_k + step, index)
-                       - model._volume(flat_k - step, index)).reshape(k.shape) / (2 * step)
-        if np.any(np.diff(pressure, axis=1) <= 0):
-            raise ValueError('the pressure map is not monotone in closure: the panel would snap')
+        distinct, self.row = _distinct_panels(model.panels)
+        source = model if len(distinct) == len(model) else ActuationModel(
+            distinct, quadrature_points=model.quadrature_points)
+        self.closures = np.linspace(0.0, 1.0, samples)
+        self._distinct = _tables(source, self.closures)
+        pressure, volume, compliance, fold_angle = (table[self.row] for table in self._distinct)
         self.pressure_pa = pressure
+        """Gauge pressure [Pa] at each panel's closure samples (N, S)."""
         self.volume_m3 = volume
-        self.compliance_m3_per_pa = volume_rate / pressure_rate
-        self.closures = closures
+        """Cushion volume [m3] there (N, S)."""
+        self.compliance_m3_per_pa = compliance
+        """Cushion compliance dV/dp [m3/Pa] there (N, S)."""
+        self.fold_angle_rad = fold_angle
+        """Flap fold angle at the crease apex [rad] there (N, S)."""
+
+    @property
+    def distinct_count(self):
+        """Number of distinct panels (module geometry and build) the tables were computed for."""
+        return self._distinct[0].shape[0]
 
     def __call__(self, gauge_pressure_pa):
         pressure = np.asarray(gauge_pressure_pa, dtype=np.float64)
@@ -54,6 +57,14 @@ class CushionMap:
         off_closed_stop = np.clip((table[:, -1] - pressure) / (table[:, -1] - table[:, -2]),
                                   0.0, 1.0)
         return volume, compliance * off_open_stop * off_closed_stop
+
+    def tables(self):
+        """Return the distinct panels' tables and each panel's row in them.
+
+        Pressure [Pa gauge], volume [m3] and compliance [m3/Pa], each (R, S), and the row
+        (N,): what a compiled integrator needs.
+        """
+        return (*self._distinct[:3], self.row)
 
     def pressure_for_closure(self, closure):
         """Gauge pressure (N,) [Pa] that holds closures (N,) in [0, 1], by interpolation."""
@@ -73,6 +84,36 @@ class CushionMap:
         rows = np.arange(table.shape[0])
         low, high = table[rows, lower], table[rows, lower + 1]
         return lower, (clipped - low) / (high - low)
+
+
+def _distinct_panels(panels):
+    """Return the distinct panels, in first-seen order, and each panel's index among them (N,).
+
+    Panels are compared by value (an :class:`~.statics.ActuatedPanel` is a frozen dataclass):
+    the 36 modules of a facade of one module geometry are one panel, built once.
+    """
+    index = {}
+    row = np.array([index.setdefault(panel, len(index)) for panel in panels], dtype=np.intp)
+    return list(index), row
+
+
+def _tables(model, closures):
+    """Pressure, volume, compliance and apex fold angle (R, S) of ``model`` at ``closures``."""
+    states = [model.fold.state_from_closure(c) for c in closures]
+    k = np.stack([state.elastica_k for state in states], axis=1)
+    fold_angle = np.stack([state.apex_fold_angle_rad for state in states], axis=1)
+    step = DERIVATIVE_STEP
+    index = np.repeat(np.arange(len(model)), closures.size)
+    flat_k = k.ravel()
+    pressure = model._pressure(flat_k, index).reshape(k.shape)
+    volume = model._volume(flat_k, index).reshape(k.shape)
+    pressure_rate = (model._pressure(flat_k + step, index)
+                     - model._pressure(flat_k - step, index)).reshape(k.shape) / (2 * step)
+    volume_rate = (model._volume(flat_k + step, index)
+                   - model._volume(flat_k - step, index)).reshape(k.shape) / (2 * step)
+    if np.any(np.diff(pressure, axis=1) <= 0):
+        raise ValueError('the pressure map is not monotone in closure: the panel would snap')
+    return pressure, volume, volume_rate / pressure_rate, fold_angle
 
 
 def _between(table, lower, fraction):

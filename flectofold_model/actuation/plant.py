@@ -28,6 +28,7 @@ import numpy as np
 
 from flectofold_model._validate import in_range, real_array, real_scalar
 from flectofold_model.actuation.circuit import PlantParameters
+from flectofold_model.actuation.cushion_map import CushionMap
 from flectofold_model.actuation.faults import CircuitFaults
 from flectofold_model.actuation.flow import (AIR_GAS_CONSTANT, ANR_DENSITY_KG_M3,
                                              ATMOSPHERIC_PRESSURE_PA, mass_flow)
@@ -55,9 +56,18 @@ class PneumaticPlant:
     step); and a cushion map whose compliance jumps (e.g. from zero when flat) makes the
     error first order in the step for the sub-step that crosses the jump.
 
-    The sub-step is chosen by a stepper (:mod:`.stepping`): fixed at ``max_step_s`` (the
-    reference), or scaled with the active conductance (``adaptive_step=True``). The sensors
-    are :class:`~.sensors.CushionSensors`, the faults of the air path
+    Three integrators, chosen with ``integrator``:
+
+    - ``'fixed'`` (default): the RK4 sub-step fixed at ``max_step_s``, the *reference* that
+      the others are tested against;
+    - ``'adaptive'``: the same RK4 with the sub-step scaled with the active conductance
+      (:mod:`.stepping`);
+    - ``'embedded'``: the compiled, error-controlled Dormand-Prince 5(4) integration of
+      :mod:`.integration`, each panel with its own steps (a few per control period while a
+      valve moves air, one while the valves are shut): the engine of the simulated facade.
+      It needs a :class:`~.cushion_map.CushionMap` (its tables are compiled in).
+
+    The sensors are :class:`~.sensors.CushionSensors`, the faults of the air path
     :class:`~.faults.CircuitFaults`.
 
     Parameters
@@ -74,13 +84,17 @@ class PneumaticPlant:
     initial_gauge_pa : array-like, default 0.0
         Initial cushion gauge pressure, scalar or ``(N,)`` [Pa], ``>= 0``. The sensor starts
         settled on it.
-    adaptive_step : bool, default False
-        Scale the sub-step with the conductance that is active (see above). ``False`` keeps
-        the fixed ``max_step_s`` sub-step, bit for bit.
+    integrator : {'fixed', 'adaptive', 'embedded'}, default 'fixed'
+        How the plant is integrated (see above).
+    tolerance_pa : float, optional
+        ``integrator='embedded'`` only: bound on each step's local error estimate [Pa];
+        :data:`.integration.TOLERANCE_PA` when not given.
     """
 
+    INTEGRATORS = ('fixed', 'adaptive', 'embedded')
+
     def __init__(self, parameters, cushion_map, count, seed=0, initial_gauge_pa=0.0,
-                 adaptive_step=False):
+                 integrator='fixed', tolerance_pa=None):
         if not isinstance(parameters, PlantParameters):
             raise TypeError(
                 f'parameters must be a PlantParameters, got {type(parameters).__name__}')
@@ -90,9 +104,20 @@ class PneumaticPlant:
             raise ValueError(f'count must be a positive integer, got {count!r}')
         if isinstance(seed, bool) or not isinstance(seed, Integral) or seed < 0:
             raise ValueError(f'seed must be a non-negative integer, got {seed!r}')
-        if not isinstance(adaptive_step, (bool, np.bool_)):
-            raise TypeError(f'adaptive_step must be True or False, got {adaptive_step!r}')
-        self._stepper = AdaptiveSubstep() if adaptive_step else FixedSubstep()
+        if not isinstance(integrator, str) or integrator not in self.INTEGRATORS:
+            raise ValueError(f'integrator must be one of {", ".join(self.INTEGRATORS)}, '
+                             f'got {integrator!r}')
+        if integrator == 'embedded' and not isinstance(cushion_map, CushionMap):
+            raise TypeError(f"integrator='embedded' needs a CushionMap, got "
+                            f'{type(cushion_map).__name__}')
+        self._integrator = integrator
+        self._stepper = AdaptiveSubstep() if integrator == 'adaptive' else FixedSubstep()
+        self._engine = None
+        if integrator == 'embedded':  # imported here: numba takes a second to import
+            from flectofold_model.actuation.integration import EmbeddedIntegrator, TOLERANCE_PA
+            self._engine = EmbeddedIntegrator(
+                parameters, cushion_map, int(count),
+                TOLERANCE_PA if tolerance_pa is None else tolerance_pa)
         self._substeps_taken = 0
         self._parameters = parameters
         self._cushion_map = cushion_map
@@ -127,13 +152,16 @@ class PneumaticPlant:
         return self._time_s
 
     @property
-    def adaptive_step(self):
-        """Whether the sub-step scales with the active conductance (:mod:`.stepping`)."""
-        return isinstance(self._stepper, AdaptiveSubstep)
+    def integrator(self):
+        """``'fixed'``, ``'adaptive'`` or ``'embedded'``: how the plant is integrated."""
+        return self._integrator
 
     @property
     def substeps_taken(self):
-        """Number of RK4 sub-steps integrated since construction: the plant's cost."""
+        """Number of sub-steps integrated since construction: the plant's cost.
+
+        RK4 sub-steps, or accepted Dormand-Prince steps for ``integrator='embedded'``.
+        """
         return self._substeps_taken
 
     @property
@@ -195,6 +223,9 @@ class PneumaticPlant:
         fill = np.where(self.faults.fill_stuck_open, 1.0, fill)
         fill_conductance = fill * self._parameters.fill_conductance_m3_s_pa
         vent_conductance = vent * self._parameters.vent_conductance_m3_s_pa
+        if self._engine is not None:
+            self._step_embedded(dt_s, fill_conductance, vent_conductance)
+            return
         longest, first_rates = self._stepper.longest_s(self, dt_s, fill_conductance,
                                                        vent_conductance)
         substeps = max(1, math.ceil(dt_s / longest * (1.0 - 1e-12)))
@@ -203,6 +234,14 @@ class PneumaticPlant:
             self._substep(step_s, fill_conductance, vent_conductance, first_rates)
             first_rates = None
         self._substeps_taken += substeps
+        self._time_s += dt_s
+
+    def _step_embedded(self, dt_s, fill_conductance, vent_conductance):
+        state = (self._pressure_pa, self._free_air_m3, self._vented_air_m3,
+                 self.sensors.lagged_pa)
+        self._substeps_taken += self._engine.advance(
+            dt_s, state, fill_conductance, vent_conductance, self.faults.leak_conductance,
+            self.faults.supply_pa)
         self._time_s += dt_s
 
     def _substep(self, h, fill_conductance, vent_conductance, k1=None):

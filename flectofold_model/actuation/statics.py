@@ -103,6 +103,7 @@ class ActuationModel:
                 raise TypeError(f'panel {index} is a {type(panel).__name__}, '
                                 f'not an ActuatedPanel')
         self.panels = panels
+        self.quadrature_points = quadrature_points
         self.fold = FoldModel(PanelBatch.from_panels(p.geometry for p in panels))
         self._all = np.arange(len(panels))
         self._set_stiffnesses(panels)

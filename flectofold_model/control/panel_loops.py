@@ -14,10 +14,10 @@ however long the loop has run.
 """
 
 from collections import deque
-import dataclasses
 from dataclasses import dataclass
 from itertools import islice
 import math
+import time
 
 import numpy as np
 
@@ -41,6 +41,8 @@ class LoopAdvance:
     """Control periods run."""
     skipped_s: float
     """Clock time not simulated because the jump exceeded the catch-up limit [s]."""
+    behind_s: float = 0.0
+    """Clock time still to simulate when the call ran out of time (``max_call_s``) [s]."""
 
 
 @dataclass(frozen=True)
@@ -94,10 +96,16 @@ class PanelLoops:
         faster than real time. ``None`` (default) always runs ``control_period_s``.
     cushion_map : CushionMap, optional
         The tabulated map of ``model``; built from it when not given.
+    max_call_s : float, optional
+        Simulated drivers only: the longest one :meth:`advance_to` call works [s, wall clock].
+        A loop that cannot keep up with its clock then stops there and goes on at the next
+        call (:attr:`behind_s` says how far behind it is), so that its process still
+        publishes and answers signals. ``None`` (default): every call catches up fully.
     """
 
     def __init__(self, model, driver, control_period_s=0.1, parameters=ControllerParameters(),
-                 max_catch_up_s=3600.0, quiet_period_s=None, cushion_map=None):
+                 max_catch_up_s=3600.0, quiet_period_s=None, cushion_map=None,
+                 max_call_s=None):
         if not isinstance(model, ActuationModel):
             raise TypeError(f'model must be an ActuationModel, got {type(model).__name__}')
         if not isinstance(driver, CushionDriver):
@@ -110,6 +118,10 @@ class PanelLoops:
                 f'time_constant_s={parameters.time_constant_s:g} s is too short for a '
                 f'{self.period_s:g} s control period: give at least twice the period')
         self.max_catch_up_s = _positive('max_catch_up_s', max_catch_up_s, math.inf)
+        self.max_call_s = None if max_call_s is None else _positive('max_call_s', max_call_s,
+                                                                    60.0)
+        self.behind_s = 0.0
+        """Clock time the loop has yet to simulate after its last call [s]."""
         self.quiet_periods = 1 if quiet_period_s is None else max(1, math.floor(
             _positive('quiet_period_s', quiet_period_s, 60.0) / self.period_s + 1e-9))
         self.quiet_periods_run = 0
@@ -121,7 +133,6 @@ class PanelLoops:
         self.measured_pa = np.full(len(model), np.nan)
         self._rested_setpoint = None
         self.time_s = None
-        self._fold_angle_table = _fold_angle_table(model, self.map.closures)
         self._feedback = None
         self._sample_periods = {}
         self._sampler = None
@@ -176,12 +187,19 @@ class PanelLoops:
             self._sample(now_s)
             return LoopAdvance(1, 0.0)
         periods = math.floor((now_s - self.time_s) / self.period_s + 1e-9)
-        limit = math.floor(self.max_catch_up_s / self.period_s)
-        skipped = max(0, periods - limit) * self.period_s
-        remaining, run = min(periods, limit), 0
-        clock_s = self.time_s
-        while remaining:
-            span = min(self.quiet_periods, remaining) if self._resting() else 1
+        skipped = max(0, periods - math.floor(self.max_catch_up_s / self.period_s))
+        if skipped:
+            # The plant holds through the time beyond the catch-up limit: its state, at the
+            # new time, starts a new grid of samples.
+            self.time_s += skipped * self.period_s
+            periods -= skipped
+            if self._sampler is not None:
+                self._sampler.restart()
+                self._sample(self.time_s)
+        deadline = None if self.max_call_s is None else time.monotonic() + self.max_call_s
+        run = 0
+        while periods:
+            span = min(self.quiet_periods, periods) if self._resting() else 1
             # the state a quiet span holds: computed only for one
             held = (self._current_feedback(), self.measured_pa) if span > 1 else None
             command = self._period(span * self.period_s)
@@ -189,18 +207,16 @@ class PanelLoops:
                 span = 1  # woke up: these openings hold for one short period only
             self.quiet_periods_run += span > 1
             self.driver.advance(span * self.period_s)
-            remaining -= span
+            periods -= span
             run += 1
-            clock_s += span * self.period_s
+            self.time_s += span * self.period_s
             if span > 1:
-                self._hold_samples(clock_s, *held)
-            self._sample(clock_s)
-        self.time_s += periods * self.period_s
-        if skipped and self._sampler is not None:
-            # The plant held through the skipped time: its state, now, starts a new grid.
-            self._sampler.restart()
+                self._hold_samples(self.time_s, *held)
             self._sample(self.time_s)
-        return LoopAdvance(run, skipped)
+            if deadline is not None and time.monotonic() > deadline:
+                break  # out of time for this call: the rest waits for the next one
+        self.behind_s = periods * self.period_s
+        return LoopAdvance(run, skipped * self.period_s, self.behind_s)
 
     # -- samples ---------------------------------------------------------------------------
 
@@ -285,7 +301,7 @@ class PanelLoops:
         """Closure and fold angle (N,) of the last period, computed once per period."""
         if self._feedback is None:
             closure = self.map.closure(np.maximum(self.controller.filtered_gauge_pa, 0.0))
-            table = self._fold_angle_table
+            table = self.map.fold_angle_rad
             position = closure * (table.shape[1] - 1)
             lower = np.minimum(position.astype(np.intp), table.shape[1] - 2)
             rows = np.arange(len(self))
@@ -403,6 +419,11 @@ class LoopRow:
         return self.loops.time_s
 
     @property
+    def behind_s(self):
+        """Clock time the loops have yet to simulate: they cannot keep up [s]."""
+        return self.loops.behind_s
+
+    @property
     def sensor_noise_pa(self):
         """Standard deviation of the cushion sensor's noise [Pa]."""
         return self.loops.driver.circuit.sensor_noise_pa
@@ -415,30 +436,24 @@ def _positive(name, value, largest):
     return value
 
 
-def _fold_angle_table(model, closures):
-    """Apex fold angle (N, S) at the static map's closure samples."""
-    return np.stack([model.fold.state_from_closure(c).apex_fold_angle_rad for c in closures],
-                    axis=1)
-
-
 def facade_loops(facade, panel_ids, control_period_s=0.1, parameters=ControllerParameters(),
-                 circuit=DEMONSTRATOR_PLANT, seed=0, quiet_period_s=None):
+                 circuit=DEMONSTRATOR_PLANT, seed=0, quiet_period_s=None, max_call_s=None):
     """Build :class:`PanelLoops` for some panels of a facade on one simulated circuit.
 
     Each panel is actuated like the demonstrator module (see
     :func:`~flectofold_model.actuation.statics.actuated_like`); ``panel_ids`` must name
-    panels of ``facade`` (``ValueError`` lists what is there otherwise).
+    panels of ``facade`` (``ValueError`` lists what is there otherwise). The plant is the
+    compiled engine (``PneumaticPlant(integrator='embedded')``); panels of one module geometry
+    share one static table.
     """
     indices = panel_indices(facade, panel_ids)
-    if quiet_period_s is not None and circuit.max_quiet_step_s < quiet_period_s:
-        # valves shut, only the healthy leak moves the pressure: one sub-step is exact enough
-        circuit = dataclasses.replace(circuit, max_quiet_step_s=quiet_period_s)
     model = ActuationModel([actuated_like(facade.panels[i]) for i in indices])
     cushion_map = CushionMap(model)
     driver = SimulatedCushions(PneumaticPlant(circuit, cushion_map, len(indices), seed=seed,
-                                              adaptive_step=True))
+                                              integrator='embedded'))
     return PanelLoops(model, driver, control_period_s, parameters,
-                      quiet_period_s=quiet_period_s, cushion_map=cushion_map)
+                      quiet_period_s=quiet_period_s, cushion_map=cushion_map,
+                      max_call_s=max_call_s)
 
 
 def panel_indices(facade, panel_ids):

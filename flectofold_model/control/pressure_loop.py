@@ -35,8 +35,8 @@ import numpy as np
 
 from flectofold_model._validate import in_range, real_array, real_fields, real_scalar
 from flectofold_model.actuation import (AIR_GAS_CONSTANT, ATMOSPHERIC_PRESSURE_PA, CushionMap,
-                                        iso6358_mass_flow, PlantParameters,
-                                        UnreachableClosureWarning)
+                                        PlantParameters, UnreachableClosureWarning)
+from flectofold_model.actuation.flow import mass_flow
 
 
 class Fault(enum.Enum):
@@ -293,13 +293,13 @@ class PressureController:
         upstream = np.where(np.isfinite(supply), supply, 0.0)
         # Opening the fill valve against a supply no higher than the cushion would drain it.
         can_fill = upstream > absolute + self.parameters.supply_margin_pa
-        fill_capacity = iso6358_mass_flow(np.maximum(upstream, absolute + 1.0), absolute,
-                                          self.plant.fill_conductance_m3_s_pa,
-                                          self.plant.critical_ratio, self.plant.temperature_k)
-        vent_capacity = iso6358_mass_flow(np.maximum(absolute, ATMOSPHERIC_PRESSURE_PA + 1.0),
-                                          ATMOSPHERIC_PRESSURE_PA,
-                                          self.plant.vent_conductance_m3_s_pa,
-                                          self.plant.critical_ratio, self.plant.temperature_k)
+        # the unchecked ISO 6358 flow: every argument here is built finite and positive
+        fill_capacity = mass_flow(np.maximum(upstream, absolute + 1.0), absolute,
+                                  self.plant.fill_conductance_m3_s_pa, self.plant.critical_ratio,
+                                  self.plant.temperature_k)
+        vent_capacity = mass_flow(np.maximum(absolute, ATMOSPHERIC_PRESSURE_PA + 1.0),
+                                  ATMOSPHERIC_PRESSURE_PA, self.plant.vent_conductance_m3_s_pa,
+                                  self.plant.critical_ratio, self.plant.temperature_k)
         self._fill_capacity = np.where(can_fill, fill_capacity, 0.0)
         self._vent_capacity, self._capacitance = vent_capacity, capacitance
         fill_wish = np.where((demand > 0) & can_fill, demand / fill_capacity, 0.0)
@@ -374,6 +374,11 @@ class PressureController:
         self._expected_change_pa += dt_s * (command.fill_opening * self._fill_capacity
                                             - command.vent_opening * self._vent_capacity
                                             ) / self._capacitance
+        # No vent takes the cushion below the atmosphere: without this floor, a full vent
+        # through the open stop (where the capacitance shrinks to the dead volume) predicts
+        # a drop far larger than the pressure has, and reads as air coming in.
+        np.maximum(self._expected_change_pa, -np.maximum(start, 0.0),
+                   out=self._expected_change_pa)
         timer[:] = np.where(readable, timer + dt_s, 0.0)
         window_done = timer >= parameters.leak_time_s
         expected = self._expected_change_pa

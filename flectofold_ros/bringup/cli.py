@@ -26,7 +26,7 @@ from flectofold_ros import contract
 from flectofold_ros.bringup.monitor import Monitor
 from flectofold_ros.bringup.plan import local_time, MAX_LAG_S, plan_day
 from flectofold_ros.nodes.coordinator import CoordinatorNode
-from flectofold_ros.nodes.panel import start_panels
+from flectofold_ros.nodes.panel import MAX_CALL_S, start_panels
 from flectofold_ros.nodes.sun_position import SunPositionNode
 from flectofold_ros.runner import Program, run_nodes
 
@@ -294,7 +294,9 @@ class Bringup(Program):
             lines += [f'  panels: air drawn {air:.0f} NL ({air / len(facade):.1f} NL per '
                       f'panel), final |closure - setpoint| max {monitor.tracking_error():.3f}',
                       f'  faults: {", ".join(monitor.faults()) or "none"}; setpoints rejected '
-                      f'{rejected:.0f}; panels in setpoint timeout {timeouts}']
+                      f'{rejected:.0f}; panels in setpoint timeout {timeouts}',
+                      f'  simulation: at most {monitor.largest_behind_s():.1f} s behind the '
+                      f'clock (a loop call works at most {MAX_CALL_S:g} s)']
         lines.append(f'  CPU {cpu_s:.1f} s in {process_wall_s:.0f} s '
                      f'({cpu_s / max(process_wall_s, 1e-9):.2f} cores); peak RSS '
                      f'{usage.ru_maxrss / 1024:.0f} MB this process'

@@ -29,6 +29,8 @@ class PanelView:
     status: str = ''
     counters: dict = field(default_factory=dict)
     """Cumulative figures from the panel's ``/diagnostics`` status, by contract key."""
+    behind_s: float = 0.0
+    """Largest lag behind the clock the panel's simulation reported [s]."""
 
 
 class Monitor(Node):
@@ -79,6 +81,8 @@ class Monitor(Node):
             for item in status.values:
                 if item.key in self.COUNTERS:
                     view.counters[item.key] = _number(item.value)
+                elif item.key == contract.DIAGNOSTIC_BEHIND_S:
+                    view.behind_s = max(view.behind_s, _number(item.value))
 
     # -- questions --------------------------------------------------------------------------
 
@@ -126,6 +130,10 @@ class Monitor(Node):
     def counter_total(self, key):
         """Sum of a cumulative counter over the panels that reported it."""
         return sum(view.counters[key] for view in self.panels.values() if key in view.counters)
+
+    def largest_behind_s(self):
+        """Largest lag behind the clock any panel's simulation reported [s]."""
+        return max(view.behind_s for view in self.panels.values())
 
     def tracking_error(self):
         """Largest ``|closure - setpoint|`` over the panels that reported both, or NaN."""

@@ -53,6 +53,11 @@ PARAMETERS = {
 }
 LOOP_SETTINGS = ('facade_file', 'hardware', 'control_period_s', 'control.time_constant_s',
                  'control.hold_band_pa', 'simulation.quiet_period_s', 'max_gauge_pressure_pa')
+#: Longest one loop call works [s, wall clock]: a process that cannot keep up with its clock
+#: still publishes and answers signals between calls.
+MAX_CALL_S = 0.25
+#: A loop further behind its clock than this says it is overloaded [s].
+OVERLOADED_S = 1.0
 USAGE = 'panel_node --ros-args -r __ns:=/facade/<id> [-p name:=value ...]'
 
 
@@ -216,6 +221,9 @@ class PanelNode(Node):
                 f'rejected {self._rejected_since_report} setpoint(s): {guard.last_rejection}')
         elif row.limited_by_supply:
             level, message = diagnostics.WARN, 'supply too weak for the setpoint'
+        if row.behind_s > OVERLOADED_S and level == diagnostics.OK:
+            level, message = diagnostics.WARN, (
+                f'overloaded: the simulation is {row.behind_s:.1f} s behind the clock')
         if fault is not Fault.NONE:
             level, message = diagnostics.ERROR, f'circuit fault: {fault.value}'
         figures = {
@@ -228,6 +236,7 @@ class PanelNode(Node):
             contract.DIAGNOSTIC_FREE_AIR_NL: row.free_air_used_nl,
             'sim_time_skipped_s': self._skipped_s,
             'loop_time_s': row.time_s if row.time_s is not None else math.nan,
+            contract.DIAGNOSTIC_BEHIND_S: row.behind_s,
         }
         return diagnostics.status(self, level, 'pressure loop', self.panel_id, message,
                                   figures)
@@ -248,7 +257,8 @@ def build_loops(node, panel_ids, seed=0):
         integral_time_s=4.0 * settings['control.time_constant_s'],
         hold_band_pa=settings['control.hold_band_pa'])
     return facade_loops(facade, panel_ids, settings['control_period_s'], parameters,
-                        seed=seed, quiet_period_s=settings['simulation.quiet_period_s'])
+                        seed=seed, quiet_period_s=settings['simulation.quiet_period_s'],
+                        max_call_s=MAX_CALL_S)
 
 
 def start_panels(panel_ids, seed=0, **node_kwargs):

@@ -19,6 +19,7 @@ from flectofold_model.control.pressure_loop import Fault, PressureController
 RT = AIR_GAS_CONSTANT * 293.15
 QUIET = {'sensor_noise_pa': 0.0, 'sensor_lag_s': 0.0}
 SEALED = {'leak_conductance_m3_s_pa': 0.0, 'relief_conductance_m3_s_pa': 0.0}
+STEPPING = {False: 'fixed', True: 'adaptive'}  # the RK4 plant's two sub-step rules
 
 
 def linear_cushion(v0_m3=1e-4, compliance_m3_per_pa=2.2e-7, v_max_m3=15e-3):
@@ -408,23 +409,23 @@ def mixed_run(**keywords):
     return plant, np.array(readings)
 
 
-def test_without_adaptive_step_the_integration_is_unchanged_bit_for_bit():
+def test_the_fixed_step_reference_is_unchanged_bit_for_bit():
     default, default_readings = mixed_run()
-    fixed, fixed_readings = mixed_run(adaptive_step=False)
-    assert not default.adaptive_step and not fixed.adaptive_step
+    fixed, fixed_readings = mixed_run(integrator='fixed')
+    assert default.integrator == fixed.integrator == 'fixed'
     np.testing.assert_array_equal(fixed.absolute_pressure_pa, default.absolute_pressure_pa)
     np.testing.assert_array_equal(fixed_readings, default_readings)
     np.testing.assert_array_equal(fixed.free_air_used_m3, default.free_air_used_m3)
     np.testing.assert_array_equal(fixed.vented_air_m3, default.vented_air_m3)
     assert fixed.substeps_taken == default.substeps_taken == 3 * 250 + 300
-    # Printed by the plant before adaptive_step existed (the last digits may differ with libm).
+    # Printed by the plant before other integrators existed (the last digits may differ with libm).
     np.testing.assert_allclose(default.absolute_pressure_pa,
                                [102081.11602739088, 104319.32426825198, 110935.88731280628],
                                rtol=1e-12, atol=0.0)
     np.testing.assert_allclose(default.free_air_used_m3,
                                [1.7794271447429762e-4, 5.248391218716295e-5,
                                 2.0140000512109866e-4], rtol=1e-10, atol=0.0)
-    adaptive, _readings = mixed_run(adaptive_step=True)
+    adaptive, _readings = mixed_run(integrator='adaptive')
     assert adaptive.substeps_taken < default.substeps_taken
 
 
@@ -432,7 +433,7 @@ def test_a_wide_open_or_jammed_valve_takes_the_fixed_step_bit_for_bit():
     results = []
     for adaptive in (False, True):
         plant = PneumaticPlant(PlantParameters(**QUIET), linear_cushion(), 2,
-                               adaptive_step=adaptive)
+                               integrator=STEPPING[adaptive])
         plant.inject_fill_valve_stuck_open([1])
         plant.step(0.5, [1.0, 0.0], 0.0)
         plant.step(0.5, 0.0, [1.0, 0.0])
@@ -459,7 +460,7 @@ def test_a_barely_open_fill_crosses_the_open_stop_ramp_as_accurately_as_the_fixe
         fill(PneumaticPlant(parameters, demonstrator_map(3), 3), openings) - reference), axis=0)
     assert np.all(reference[-1] > 4.0)  # through the ramp: it ends 33 Pa above the stop
     for index, opening in enumerate(openings):
-        plant = PneumaticPlant(parameters, demonstrator_map(1), 1, adaptive_step=True)
+        plant = PneumaticPlant(parameters, demonstrator_map(1), 1, integrator='adaptive')
         error = np.max(np.abs(fill(plant, opening)[:, 0] - reference[:, index]))
         # Measured 5e-5, 0.009, 0.4 Pa, each the fixed plant's; one 0.1 s sub-step per call
         # (no capacitance guard) would be 2, 14 and 18 Pa off.
@@ -471,7 +472,7 @@ def test_a_quiet_hold_takes_one_sub_step_per_call_and_follows_the_leak_exactly()
     """Valves shut for 60 s at 5 kPa: the healthy leak alone, against solve_ivp."""
     parameters = replace(DEMONSTRATOR_PLANT, **QUIET)
     table = demonstrator_map(1)
-    plant = PneumaticPlant(parameters, table, 1, adaptive_step=True, initial_gauge_pa=5e3)
+    plant = PneumaticPlant(parameters, table, 1, integrator='adaptive', initial_gauge_pa=5e3)
     for _ in range(600):
         plant.step(0.1, 0.0, 0.0)
     fixed_substeps = 600 * round(0.1 / parameters.max_step_s)
@@ -500,7 +501,7 @@ def test_the_relief_valve_within_reach_shortens_the_step():
         traces = []
         for max_step_s, adaptive in ((1e-4, False), (1e-3, False), (1e-3, True)):
             plant = PneumaticPlant(replace(parameters, max_step_s=max_step_s),
-                                   rigid_cushion(3e-4), 1, adaptive_step=adaptive,
+                                   rigid_cushion(3e-4), 1, integrator=STEPPING[adaptive],
                                    initial_gauge_pa=start)
             trace = []
             for _ in range(10):
@@ -517,7 +518,7 @@ def test_the_relief_valve_within_reach_shortens_the_step():
 
 def test_a_jammed_fill_valve_or_a_large_leak_forces_the_short_step():
     parameters = replace(DEMONSTRATOR_PLANT, **QUIET)
-    plant = PneumaticPlant(parameters, demonstrator_map(3), 3, adaptive_step=True,
+    plant = PneumaticPlant(parameters, demonstrator_map(3), 3, integrator='adaptive',
                            initial_gauge_pa=5e3)
     plant.step(0.1, 0.0, 0.0)
     assert plant.substeps_taken == 1
@@ -550,7 +551,7 @@ def bringup():
                                        ('adaptive', 1e-3, True)):
         parameters = replace(DEMONSTRATOR_PLANT, max_step_s=max_step_s)
         table = demonstrator_map(3)
-        plant = PneumaticPlant(parameters, table, 3, seed=1, adaptive_step=adaptive)
+        plant = PneumaticPlant(parameters, table, 3, seed=1, integrator=STEPPING[adaptive])
         trace = simulate(PressureController(table, parameters), plant, bringup_setpoint, 38.0,
                          control_period_s=0.1)
         runs[name] = trace, plant.substeps_taken
@@ -582,7 +583,7 @@ def test_a_closed_loop_hold_costs_fifty_times_fewer_sub_steps():
     """A closed panel held for 60 s; its loop still moves the valves on the sensor noise."""
     table = demonstrator_map(1)
     controller = PressureController(table, DEMONSTRATOR_PLANT)
-    plant = PneumaticPlant(DEMONSTRATOR_PLANT, table, 1, seed=1, adaptive_step=True)
+    plant = PneumaticPlant(DEMONSTRATOR_PLANT, table, 1, seed=1, integrator='adaptive')
     simulate(controller, plant, 1.0, 20.0, control_period_s=0.1)
     before = plant.substeps_taken
     trace = simulate(controller, plant, 1.0, 60.0, control_period_s=0.1)
@@ -683,10 +684,13 @@ def test_bad_quiet_steps_are_refused(keywords, message):
     assert PlantParameters(max_step_s=0.25).max_quiet_step_s == 0.25  # equal is fine
 
 
-def test_adaptive_step_must_be_a_bool_and_the_counter_is_read_only():
-    with pytest.raises(TypeError, match='adaptive_step must be True or False'):
-        PneumaticPlant(PlantParameters(), linear_cushion(), 1, adaptive_step=1)
-    plant = PneumaticPlant(PlantParameters(), linear_cushion(), 1, adaptive_step=np.True_)
-    assert plant.adaptive_step is True and plant.substeps_taken == 0
+def test_the_integrator_is_named_and_the_counter_is_read_only():
+    for wrong in (1, True, 'rk45'):
+        with pytest.raises(ValueError, match='integrator must be one of fixed, adaptive, embed'):
+            PneumaticPlant(PlantParameters(), linear_cushion(), 1, integrator=wrong)
+    with pytest.raises(TypeError, match="integrator='embedded' needs a CushionMap"):
+        PneumaticPlant(PlantParameters(), linear_cushion(), 1, integrator='embedded')
+    plant = PneumaticPlant(PlantParameters(), linear_cushion(), 1, integrator='adaptive')
+    assert plant.integrator == 'adaptive' and plant.substeps_taken == 0
     with pytest.raises(AttributeError):
         plant.substeps_taken = 5

@@ -1,5 +1,7 @@
 """The panels' pressure loops against a cushion driver, as the panel nodes run them."""
 
+import time
+
 import numpy as np
 import pytest
 
@@ -272,3 +274,26 @@ def test_after_a_skipped_jump_the_held_state_is_kept_at_the_new_time(facade):
     assert loops.samples[-1].time_s == pytest.approx(3600.0)
     loops.advance_to(3605.0)  # and the grid goes on from there
     assert loops.samples[-1].time_s == pytest.approx(3605.0)
+
+
+def test_a_loop_that_cannot_keep_up_bounds_each_call_and_says_how_far_behind(facade):
+    loops = loops_of(facade, control_period_s=0.1)
+    loops.max_call_s = 0.05
+    loops.row(0).request_sample_period(0.5)
+    loops.set_setpoints(1.0)  # filling: every period runs
+    loops.advance_to(0.0)
+    start = time.monotonic()
+    advance = loops.advance_to(600.0)
+    spent = time.monotonic() - start
+    assert 0 < advance.periods < 6000 and advance.skipped_s == 0.0
+    assert spent < 0.05 + 0.1  # one period past the budget at most (a period is < 0.1 s)
+    assert advance.behind_s == pytest.approx(600.0 - loops.time_s) == loops.behind_s
+    assert advance.behind_s > 0.0
+    calls = 1
+    while loops.behind_s > 0.0:  # later calls go on where the last one stopped
+        loops.advance_to(600.0)
+        calls += 1
+    assert calls > 1 and loops.time_s == pytest.approx(600.0)
+    times = np.array([sample.time_s for sample in loops.samples])  # the grid is unbroken
+    np.testing.assert_allclose(np.diff(times), 0.5, atol=1e-6)
+    assert times[-1] > 600.0 - 0.5 - 1e-6
