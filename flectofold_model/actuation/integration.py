@@ -14,7 +14,7 @@ fifth-order solution. The right-hand side has kinks (the choke boundary, the rel
 cracking pressure, the cushion table's nodes and its stops), where a step's order drops: the
 controller sees the larger error and shortens the step, so the bound holds there too. The
 accuracy against the reference plant over whole manoeuvres is asserted in the tests
-(``test/model/actuation/test_integration.py``) and stated in ``msg_docs/panel_node.md``.
+(``test/model/actuation/test_integration.py``) and stated in ``msg_docs/actuation.md``.
 
 As in the reference: the pressure is held at or above atmospheric after every step (stages below
 it are evaluated at atmospheric); the sensor's first-order lag is advanced exactly for a

@@ -37,9 +37,10 @@ from flectofold_model.actuation.stepping import AdaptiveSubstep, FixedSubstep
 
 
 class PneumaticPlant:
-    """``N`` cushion circuits in continuous time, integrated with fixed sub-steps.
+    """``N`` cushion circuits in continuous time: the RK4 reference, or the compiled engine.
 
-    The state of each panel is its absolute cushion pressure. :meth:`step` splits any interval
+    The state of each panel is its absolute cushion pressure. With the default
+    ``integrator='fixed'``, :meth:`step` splits any interval
     into equal sub-steps no longer than ``parameters.max_step_s`` and integrates each with the
     classic fourth-order Runge-Kutta scheme: the right-hand side is smooth almost everywhere,
     cheap to evaluate on arrays and non-stiff at the millisecond scale for the documented
