@@ -1,7 +1,5 @@
 """The panels' pressure loops against a cushion driver, as the panel nodes run them."""
 
-import time
-
 import numpy as np
 import pytest
 
@@ -282,11 +280,8 @@ def test_a_loop_that_cannot_keep_up_bounds_each_call_and_says_how_far_behind(fac
     loops.row(0).request_sample_period(0.5)
     loops.set_setpoints(1.0)  # filling: every period runs
     loops.advance_to(0.0)
-    start = time.monotonic()
-    advance = loops.advance_to(600.0)
-    spent = time.monotonic() - start
+    advance = loops.advance_to(600.0)  # 6000 periods: far more than 50 ms of work
     assert 0 < advance.periods < 6000 and advance.skipped_s == 0.0
-    assert spent < 0.05 + 0.1  # one period past the budget at most (a period is < 0.1 s)
     assert advance.behind_s == pytest.approx(600.0 - loops.time_s) == loops.behind_s
     assert advance.behind_s > 0.0
     calls = 1
