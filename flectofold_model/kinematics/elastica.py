@@ -81,29 +81,26 @@ def load_factor_from_k(k):
 
 def k_from_shortening(shortening_m, length_m):
     """Invert :func:`shortening_from_k`: the modulus for a support displacement [m]."""
-    length_m = real_array('length_m', length_m)
-    shortening_m = real_array('shortening_m', shortening_m)
-    limit = shortening_from_k(K_MAX, length_m)
-    in_range('shortening_m / its limit', shortening_m / limit, 0.0, 1.0)
-    return _invert(shortening_from_k, shortening_m, length_m)
+    return _checked_inverse(shortening_from_k, 'shortening_m', shortening_m, length_m)
 
 
 def k_from_sag(sag_m, length_m):
     """Invert :func:`sag_from_k`: the modulus for a mid-span sag [m]."""
-    length_m = real_array('length_m', length_m)
-    sag_m = real_array('sag_m', sag_m)
-    limit = sag_from_k(K_MAX, length_m)
-    in_range('sag_m / its limit', sag_m / limit, 0.0, 1.0)
-    return _invert(sag_from_k, sag_m, length_m)
+    return _checked_inverse(sag_from_k, 'sag_m', sag_m, length_m)
 
 
 def k_from_peak_curvature(curvature_per_m, length_m):
     """Invert :func:`peak_curvature_from_k`: the modulus for a mid-span curvature [1/m]."""
+    return _checked_inverse(peak_curvature_from_k, 'curvature_per_m', curvature_per_m,
+                            length_m)
+
+
+def _checked_inverse(forward, name, value, length_m):
+    """Check ``value`` lies within what ``forward`` reaches at ``K_MAX``, then invert it."""
     length_m = real_array('length_m', length_m)
-    curvature_per_m = real_array('curvature_per_m', curvature_per_m)
-    limit = peak_curvature_from_k(K_MAX, length_m)
-    in_range('curvature_per_m / its limit', curvature_per_m / limit, 0.0, 1.0)
-    return _invert(peak_curvature_from_k, curvature_per_m, length_m)
+    value = real_array(name, value)
+    in_range(f'{name} / its limit', value / forward(K_MAX, length_m), 0.0, 1.0)
+    return _invert(forward, value, length_m)
 
 
 def _invert(forward, target, length_m):
