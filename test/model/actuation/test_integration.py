@@ -27,6 +27,7 @@ PERIOD_S = 0.1
 DURATION_S = 30.0
 CONTROL = ControllerParameters(hold_band_pa=60.0)  # the panel node's default
 RT = AIR_GAS_CONSTANT * DEMONSTRATOR_PLANT.temperature_k
+QUIET_PLANT = replace(DEMONSTRATOR_PLANT, sensor_noise_pa=0.0)
 # One panel per manoeuvre: (name, closure setpoint of time, initial closure, injected fault).
 MANOEUVRES = (
     ('open to closed', lambda t: 0.0 if t < 0.5 else 1.0, 0.0, None),
@@ -131,6 +132,20 @@ def test_the_engine_takes_a_step_or_a_few_per_control_period(runs):
 # -- open loop, against an independent integration -------------------------------------------
 
 
+@pytest.fixture(scope='module')
+def one_panel_map():
+    return CushionMap(ActuationModel([DEMONSTRATOR_ACTUATED]))
+
+
+def open_loop(plant, fill, vent, periods):
+    """Step ``plant`` with the valves held; return panel 0's gauge pressure each period."""
+    trace = []
+    for _ in range(periods):
+        plant.step(PERIOD_S, fill, vent)
+        trace.append(plant.gauge_pressure_pa[0])
+    return np.array(trace)
+
+
 def independent_pressure(cushion_map, fill, vent, initial_gauge_pa, duration_s, supply_pa):
     """Integrate the cushion ODE, written again from ISO 6358 and the map, with DOP853."""
     parameters = DEMONSTRATOR_PLANT
@@ -161,21 +176,16 @@ def independent_pressure(cushion_map, fill, vent, initial_gauge_pa, duration_s, 
     (0.0, 0.0, 0.7, 6.0),    # valves shut: the healthy leak alone
 ])
 def test_open_loop_the_engine_matches_an_independent_integration(fill, vent, initial_closure,
-                                                                 duration_s):
-    cushion_map = CushionMap(ActuationModel([DEMONSTRATOR_ACTUATED]))
+                                                                 duration_s, one_panel_map):
+    cushion_map = one_panel_map
     initial = max(float(cushion_map.pressure_for_closure([initial_closure])[0]), 0.0)
     exact = independent_pressure(cushion_map, fill, vent, initial, duration_s,
                                  DEMONSTRATOR_PLANT.supply_pressure_pa)
-    quiet = replace(DEMONSTRATOR_PLANT, sensor_noise_pa=0.0)
-    traces = {}
-    for integrator in ('fixed', 'embedded'):
-        plant = PneumaticPlant(quiet, cushion_map, 1, initial_gauge_pa=initial,
-                               integrator=integrator)
-        trace = []
-        for _ in exact:
-            plant.step(PERIOD_S, fill, vent)
-            trace.append(plant.gauge_pressure_pa[0])
-        traces[integrator] = np.array(trace)
+    traces = {integrator: open_loop(PneumaticPlant(QUIET_PLANT, cushion_map, 1,
+                                                   initial_gauge_pa=initial,
+                                                   integrator=integrator),
+                                    fill, vent, exact.size)
+              for integrator in ('fixed', 'embedded')}
     engine_error = np.max(np.abs(traces['embedded'] - exact))
     fixed_error = np.max(np.abs(traces['fixed'] - exact))
     assert np.ptp(exact) > 1.0 or (fill == vent == 0.0 and np.ptp(exact) > 0.01)
@@ -196,30 +206,23 @@ def test_a_vented_panel_at_rest_costs_one_step_per_call_and_stays_at_atmosphere(
     np.testing.assert_array_equal(plant.absolute_pressure_pa, ATMOSPHERIC_PRESSURE_PA)
 
 
-def test_a_tighter_tolerance_converges_on_the_independent_integration():
-    cushion_map = CushionMap(ActuationModel([DEMONSTRATOR_ACTUATED]))
-    exact = independent_pressure(cushion_map, 1.0, 0.0, 0.0, 4.0,
+def test_a_tighter_tolerance_converges_on_the_independent_integration(one_panel_map):
+    exact = independent_pressure(one_panel_map, 1.0, 0.0, 0.0, 4.0,
                                  DEMONSTRATOR_PLANT.supply_pressure_pa)
-    quiet = replace(DEMONSTRATOR_PLANT, sensor_noise_pa=0.0)
     errors, steps = [], []
     for tolerance_pa in (100.0, 1.0, TOLERANCE_PA):
-        plant = PneumaticPlant(quiet, cushion_map, 1, integrator='embedded',
+        plant = PneumaticPlant(QUIET_PLANT, one_panel_map, 1, integrator='embedded',
                                tolerance_pa=tolerance_pa)
-        trace = []
-        for _ in exact:
-            plant.step(PERIOD_S, 1.0, 0.0)
-            trace.append(plant.gauge_pressure_pa[0])
-        errors.append(np.max(np.abs(np.array(trace) - exact)))
+        errors.append(np.max(np.abs(open_loop(plant, 1.0, 0.0, exact.size) - exact)))
         steps.append(plant.substeps_taken)
     assert errors[0] > errors[1] > errors[2]
     assert steps[0] <= steps[1] <= steps[2]
 
 
 @pytest.mark.parametrize('tolerance_pa', [0.0, -1.0, float('nan'), float('inf'), '1', True])
-def test_a_bad_tolerance_is_refused(tolerance_pa):
-    cushion_map = CushionMap(ActuationModel([DEMONSTRATOR_ACTUATED]))
+def test_a_bad_tolerance_is_refused(tolerance_pa, one_panel_map):
     with pytest.raises(ValueError, match='tolerance_pa must be positive and finite'):
-        PneumaticPlant(DEMONSTRATOR_PLANT, cushion_map, 1, integrator='embedded',
+        PneumaticPlant(DEMONSTRATOR_PLANT, one_panel_map, 1, integrator='embedded',
                        tolerance_pa=tolerance_pa)
 
 
