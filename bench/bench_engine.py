@@ -19,7 +19,7 @@ import numpy as np
 from flectofold_model.actuation import (ActuationModel, CushionMap, DEMONSTRATOR_ACTUATED,
                                         DEMONSTRATOR_PLANT, PneumaticPlant)
 from flectofold_model.control.hardware import SimulatedCushions
-from flectofold_model.control.panel_loops import PanelLoops
+from flectofold_model.control.panel_loops import compile_kernels, PanelLoops
 from flectofold_model.control.pressure_loop import ControllerParameters
 
 PERIOD_S = 0.1
@@ -103,7 +103,7 @@ def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument('--quick', action='store_true', help='shorter spans, 36 panels only')
     arguments = parser.parse_args()
-    build([DEMONSTRATOR_ACTUATED], 'embedded').advance_to(0.0)  # compile (or load) the kernels
+    compile_kernels()
     start_up()
     for count in (36,) if arguments.quick else (36, 1000):
         engine_speeds(count, arguments.quick)

@@ -161,3 +161,6 @@ DIAGNOSTIC_FREE_AIR_NL = 'free_air_used_nl'
 DIAGNOSTIC_SETPOINTS_REJECTED = 'setpoints_rejected'
 #: ``/diagnostics`` key of a panel's status: how far its simulation is behind the clock [s].
 DIAGNOSTIC_BEHIND_S = 'behind_by_s'
+#: ``/diagnostics`` key of a panel's status: states its loop kept but it did not publish,
+#: because more came in one tick than it publishes (a loop catching up).
+DIAGNOSTIC_STATES_SKIPPED = 'states_skipped'

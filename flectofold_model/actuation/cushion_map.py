@@ -41,6 +41,7 @@ class CushionMap:
         """Cushion compliance dV/dp [m3/Pa] there (N, S)."""
         self.fold_angle_rad = fold_angle
         """Flap fold angle at the crease apex [rad] there (N, S)."""
+        self._compiled = None
 
     @property
     def distinct_count(self):
@@ -65,6 +66,18 @@ class CushionMap:
         (N,): what a compiled integrator needs.
         """
         return (*self._distinct[:3], self.row)
+
+    def compiled_tables(self):
+        """Return the tables as compiled kernels take them, built once: contiguous arrays.
+
+        Pressure [Pa gauge], volume [m3], compliance [m3/Pa] and apex fold angle [rad] of the
+        distinct panels (R, S), each panel's row (N,) and the closure samples (S,).
+        """
+        if self._compiled is None:
+            self._compiled = (*(np.ascontiguousarray(t, dtype=np.float64) for t in self._distinct),
+                              np.ascontiguousarray(self.row, dtype=np.int64),
+                              np.ascontiguousarray(self.closures, dtype=np.float64))
+        return self._compiled
 
     def pressure_for_closure(self, closure):
         """Gauge pressure (N,) [Pa] that holds closures (N,) in [0, 1], by interpolation."""

@@ -34,9 +34,9 @@ m^3/(s*Pa), times in s.
 
 import math
 
-import numba
 import numpy as np
 
+from flectofold_model._compiled import inline_kernel, kernel
 from flectofold_model.actuation.flow import (AIR_GAS_CONSTANT, ANR_DENSITY_KG_M3,
                                              ANR_TEMPERATURE_K, ATMOSPHERIC_PRESSURE_PA)
 
@@ -46,6 +46,8 @@ TOLERANCE_PA = 0.01
 SHORTEST_STEP_S = 1e-7
 #: Step-size controller: safety factor and the largest shrink and growth per step [2].
 _SAFETY, _SHRINK, _GROW = 0.9, 0.2, 5.0
+#: Error ratios at or below this grow the step by the most, ``_GROW``: no power to compute.
+_GROW_FULLY = (_SAFETY / _GROW) ** 5
 
 # Dormand-Prince 5(4) tableau [1]: nodes, stage weights, fifth-order weights (the last stage is
 # the fifth-order solution, "first same as last") and the error weights (fifth minus fourth).
@@ -64,7 +66,7 @@ _E1, _E3, _E4, _E5, _E6, _E7 = (71.0 / 57600.0, -71.0 / 16695.0, 71.0 / 1920.0,
 _ATM = ATMOSPHERIC_PRESSURE_PA
 
 
-@numba.njit(cache=True)
+@inline_kernel
 def _mass_flow(from_pa, to_pa, conductance, critical_ratio, temperature_scale):
     """Signed ISO 6358 mass flow [kg/s]; :func:`.flow.mass_flow` for scalars."""
     high, low = (from_pa, to_pa) if from_pa >= to_pa else (to_pa, from_pa)
@@ -77,7 +79,7 @@ def _mass_flow(from_pa, to_pa, conductance, critical_ratio, temperature_scale):
     return 0.0
 
 
-@numba.njit(cache=True)
+@inline_kernel
 def _cushion(pressure_table, volume_table, compliance_table, row, gauge_pa):
     """Volume and compliance of one panel's cushion: :meth:`.CushionMap.__call__` for a scalar."""
     table = pressure_table[row]
@@ -94,46 +96,50 @@ def _cushion(pressure_table, volume_table, compliance_table, row, gauge_pa):
     return volume, compliance * off_open_stop * off_closed_stop
 
 
-@numba.njit(cache=True)
-def _rates(pressure_pa, i, fill_conductance, vent_conductance, leak_conductance, supply_pa,
-           tables, row, circuit):
-    """``dp/dt`` [Pa/s], fill inflow and vent outflow [m^3/s free air] of panel ``i``."""
+@inline_kernel
+def _rates(pressure_pa, panel):
+    """``dp/dt`` [Pa/s], fill inflow and vent outflow [m^3/s free air] of one panel.
+
+    ``panel`` is its fill, vent and leak conductance [m^3/(s*Pa)], its supply [Pa], the cushion
+    tables and its row in them, and the circuit tuple.
+    """
+    fill_conductance, vent_conductance, leak_conductance, supply_pa, tables, row, circuit = \
+        panel
     (critical_ratio, temperature_scale, rt, dead_volume, relief_cracking, relief_span,
      relief_conductance) = circuit
     p = max(pressure_pa, _ATM)
-    fill = _mass_flow(supply_pa[i], p, fill_conductance[i], critical_ratio, temperature_scale)
+    fill = _mass_flow(supply_pa, p, fill_conductance, critical_ratio, temperature_scale)
     per_conductance = _mass_flow(p, _ATM, 1.0, critical_ratio, temperature_scale)
     relief = min(max((p - _ATM - relief_cracking) / relief_span, 0.0), 1.0) * relief_conductance
-    exhaust = vent_conductance[i] + leak_conductance[i] + relief
-    volume, compliance = _cushion(tables[0], tables[1], tables[2], row[i], p - _ATM)
+    exhaust = vent_conductance + leak_conductance + relief
+    volume, compliance = _cushion(tables[0], tables[1], tables[2], row, p - _ATM)
     capacitance = volume + dead_volume + p * compliance
     rate = rt * (fill - per_conductance * exhaust) / capacitance
     return (rate, max(fill, 0.0) / ANR_DENSITY_KG_M3,
-            per_conductance * vent_conductance[i] / ANR_DENSITY_KG_M3)
+            per_conductance * vent_conductance / ANR_DENSITY_KG_M3)
 
 
-@numba.njit(cache=True)
+@inline_kernel
 def _advance_panel(i, dt_s, pressure, free_air_m3, vented_m3, lagged_pa, step_s, fill, vent,
                    leak, supply, tables, row, circuit, sensor_lag_s, tolerance_pa):
     """Integrate panel ``i`` over ``dt_s``; return the steps accepted and rejected."""
     p, free_air, vented, lagged = pressure[i], free_air_m3[i], vented_m3[i], lagged_pa[i]
     h = step_s[i]
-    args = (fill, vent, leak, supply, tables, row, circuit)
-    k1, f1, v1 = _rates(p, i, *args)
+    panel = (fill[i], vent[i], leak[i], supply[i], tables, row[i], circuit)
+    k1, f1, v1 = _rates(p, panel)
     t, accepted, rejected = 0.0, 0, 0
     while t < dt_s:
         last = h >= dt_s - t
         h_try = dt_s - t if last else h
-        k2, f2, v2 = _rates(p + h_try * _A21 * k1, i, *args)
-        k3, f3, v3 = _rates(p + h_try * (_A31 * k1 + _A32 * k2), i, *args)
-        k4, f4, v4 = _rates(p + h_try * (_A41 * k1 + _A42 * k2 + _A43 * k3), i, *args)
-        k5, f5, v5 = _rates(p + h_try * (_A51 * k1 + _A52 * k2 + _A53 * k3 + _A54 * k4), i,
-                            *args)
+        k2, f2, v2 = _rates(p + h_try * _A21 * k1, panel)
+        k3, f3, v3 = _rates(p + h_try * (_A31 * k1 + _A32 * k2), panel)
+        k4, f4, v4 = _rates(p + h_try * (_A41 * k1 + _A42 * k2 + _A43 * k3), panel)
+        k5, f5, v5 = _rates(p + h_try * (_A51 * k1 + _A52 * k2 + _A53 * k3 + _A54 * k4), panel)
         k6, f6, v6 = _rates(p + h_try * (_A61 * k1 + _A62 * k2 + _A63 * k3 + _A64 * k4
-                                         + _A65 * k5), i, *args)
+                                         + _A65 * k5), panel)
         p_new = p + h_try * (_B1 * k1 + _B3 * k3 + _B4 * k4 + _B5 * k5 + _B6 * k6)
         p_new = max(p_new, _ATM)
-        k7, f7, v7 = _rates(p_new, i, *args)
+        k7, f7, v7 = _rates(p_new, panel)
         error = abs(h_try * (_E1 * k1 + _E3 * k3 + _E4 * k4 + _E5 * k5 + _E6 * k6 + _E7 * k7))
         ratio = error / tolerance_pa
         if ratio > 1.0 and h_try > SHORTEST_STEP_S:
@@ -151,7 +157,7 @@ def _advance_panel(i, dt_s, pressure, free_air_m3, vented_m3, lagged_pa, step_s,
         p, k1, f1, v1 = p_new, k7, f7, v7
         t = dt_s if last else t + h_try
         accepted += 1
-        grow = _GROW if ratio == 0.0 else min(_GROW, _SAFETY * ratio ** -0.2)
+        grow = _GROW if ratio <= _GROW_FULLY else _SAFETY * ratio ** -0.2
         # a step cut short to land on dt_s says nothing about the step the physics allows
         if not (last and h_try < h):
             h = h_try * grow
@@ -160,7 +166,7 @@ def _advance_panel(i, dt_s, pressure, free_air_m3, vented_m3, lagged_pa, step_s,
     return accepted, rejected
 
 
-@numba.njit(cache=True)
+@kernel
 def _advance_all(dt_s, pressure, free_air_m3, vented_m3, lagged_pa, step_s, fill, vent, leak,
                  supply, tables, row, circuit, sensor_lag_s, tolerance_pa):
     accepted, rejected = 0, 0
@@ -214,6 +220,10 @@ class EmbeddedIntegrator:
         """Each panel's next step length [s], kept from call to call."""
         self.rejected_steps = 0
         """Steps whose error was too large, retried shorter, since construction."""
+
+    def kernel_constants(self):
+        """Return the cushion tables, rows, circuit tuple, sensor lag and tolerance."""
+        return self._tables, self._row, self._circuit, self._sensor_lag_s, self.tolerance_pa
 
     def advance(self, dt_s, state, fill_conductance, vent_conductance, leak_conductance,
                 supply_pa):

@@ -237,6 +237,32 @@ class PneumaticPlant:
         self._substeps_taken += substeps
         self._time_s += dt_s
 
+    def kernel_view(self):
+        """Return the compiled engine's live state and constants, for a caller that runs it.
+
+        Returns ``(arrays, constants, sensors)``: the arrays the engine updates in place
+        (absolute pressure, free air in and vented, lagged pressure, each panel's step, leak
+        conductance, fill valve jammed, supply pressure), its constants (full fill and vent
+        conductances, cushion tables and rows, circuit, sensor lag, tolerance) and
+        :meth:`.CushionSensors.kernel_view`. Fetch it anew for each run: an injected fault
+        replaces arrays. Report the time run with :meth:`account`.
+        """
+        if self._engine is None:
+            raise ValueError("kernel_view needs integrator='embedded', not "
+                             f'{self._integrator!r}')
+        engine, faults, parameters = self._engine, self.faults, self._parameters
+        arrays = (self._pressure_pa, self._free_air_m3, self._vented_air_m3,
+                  self.sensors.lagged_pa, engine.step_s, faults.leak_conductance,
+                  faults.fill_stuck_open, faults.supply_pa)
+        return arrays, (parameters.fill_conductance_m3_s_pa, parameters.vent_conductance_m3_s_pa,
+                        *engine.kernel_constants()), self.sensors.kernel_view()
+
+    def account(self, dt_s, accepted, rejected):
+        """Count ``dt_s`` [s] and the steps a caller of :meth:`kernel_view` ran."""
+        self._time_s += dt_s
+        self._substeps_taken += accepted
+        self._engine.rejected_steps += rejected
+
     def _step_embedded(self, dt_s, fill_conductance, vent_conductance):
         state = (self._pressure_pa, self._free_air_m3, self._vented_air_m3,
                  self.sensors.lagged_pa)

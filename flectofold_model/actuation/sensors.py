@@ -27,6 +27,7 @@ class CushionSensors:
         self.lagged_pa = initial_pa.copy()
         """The lagged true pressure, before offset and noise (N,) [Pa]."""
         self._last_reading_pa = self.lagged_pa + parameters.sensor_offset_pa
+        self._drawn = np.empty(0)
         self.clear_faults()
 
     def track(self, p0, p1, h):
@@ -51,7 +52,7 @@ class CushionSensors:
         the first read, the noise-free initial one); a dropped-out sensor reads NaN.
         """
         parameters = self._parameters
-        noise = self._rng.standard_normal(self._count) * parameters.sensor_noise_pa
+        noise = self._normals(self._count) * parameters.sensor_noise_pa
         reading = self.lagged_pa + parameters.sensor_offset_pa + noise
         reading = np.where(self._stuck, self._last_reading_pa, reading)
         reading[self._dropout] = np.nan
@@ -60,8 +61,38 @@ class CushionSensors:
 
     def read_supply(self, supply_pa):
         """Measured absolute supply pressure of a true ``supply_pa`` (N,) [Pa]: no lag."""
-        noise = self._rng.standard_normal(self._count) * self._parameters.sensor_noise_pa
+        noise = self._normals(self._count) * self._parameters.sensor_noise_pa
         return supply_pa + noise
+
+    def draw_ahead(self, reads):
+        """Return the standard normal draws of the next ``reads`` reads (reads, 2, N).
+
+        Row ``[r, 0]`` is what the ``r``-th :meth:`read` from now would draw, ``[r, 1]`` the
+        :meth:`read_supply` after it: a compiled caller that reads both once per period uses
+        them in this order, and hands back what it did not use (:meth:`put_back`), so that
+        the readings are the ones the reads would have given.
+        """
+        return self._normals(2 * reads * self._count).reshape(reads, 2, self._count)
+
+    def put_back(self, draws):
+        """Return draws taken with :meth:`draw_ahead` but not used: the next reads take them."""
+        self._drawn = np.concatenate((np.ravel(draws), self._drawn))
+
+    def kernel_view(self):
+        """Offset and noise [Pa], stuck and dropped-out masks, last readings (N,), live."""
+        parameters = self._parameters
+        return (parameters.sensor_offset_pa, parameters.sensor_noise_pa, self._stuck,
+                self._dropout, self._last_reading_pa)
+
+    def _normals(self, count):
+        """Return the next ``count`` standard normal draws, those drawn ahead first."""
+        if not self._drawn.size:
+            return self._rng.standard_normal(count)
+        if self._drawn.size < count:
+            self._drawn = np.concatenate(
+                (self._drawn, self._rng.standard_normal(count - self._drawn.size)))
+        taken, self._drawn = self._drawn[:count], self._drawn[count:]
+        return taken
 
     def inject_stuck(self, panels):
         """Freeze the cushion sensor of ``panels`` on the value it returned last."""

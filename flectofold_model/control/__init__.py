@@ -7,6 +7,8 @@
   simulation;
 - :mod:`.panel_loops`: the loops of the panels one process hosts (:class:`PanelLoops`), each
   panel's handle on them (:class:`LoopRow`);
+- :mod:`.loop_kernel`, :mod:`.simulation_kernel`: the compiled loop (its one implementation)
+  and the compiled simulation of many periods of loops and plant;
 - :mod:`.decimation`: which states to publish (:class:`PublishDecimator`);
 - :mod:`.loop_simulation`: a closed loop against the plant, and step metrics.
 """
@@ -14,8 +16,8 @@
 from flectofold_model.control.decimation import PublishDecimator
 from flectofold_model.control.hardware import CushionDriver, SimulatedCushions
 from flectofold_model.control.loop_simulation import LoopTrace, simulate, step_metrics, StepMetrics
-from flectofold_model.control.panel_loops import (facade_loops, LoopAdvance, LoopRow,
-                                                  panel_indices, PanelLoops, RowSample)
+from flectofold_model.control.panel_loops import (compile_kernels, facade_loops, LoopAdvance,
+                                                  LoopRow, panel_indices, PanelLoops, RowSample)
 from flectofold_model.control.pressure_loop import (ControllerParameters, Fault,
                                                     PressureController, SafeAction, ValveCommand)
 from flectofold_model.control.setpoint_guard import SafeBehaviour, SetpointGuard, SetpointState
@@ -24,5 +26,5 @@ __all__ = [
     'ControllerParameters', 'CushionDriver', 'Fault', 'LoopAdvance', 'LoopRow', 'LoopTrace',
     'PanelLoops', 'PressureController', 'PublishDecimator', 'RowSample', 'SafeAction',
     'SafeBehaviour', 'SetpointGuard', 'SetpointState', 'SimulatedCushions', 'StepMetrics',
-    'ValveCommand', 'facade_loops', 'panel_indices', 'simulate', 'step_metrics',
+    'ValveCommand', 'compile_kernels', 'facade_loops', 'panel_indices', 'simulate', 'step_metrics',
 ]

@@ -91,6 +91,14 @@ class SimulatedCushions(CushionDriver):
     def advance(self, dt_s):
         self.plant.step(dt_s, self._fill, self._vent)
 
+    def valve_openings(self, copy=True):
+        """Return the fill and vent openings (N,) in force.
+
+        ``copy=False``: the live arrays, which a compiled simulation that writes the valves
+        itself updates in place.
+        """
+        return (self._fill.copy(), self._vent.copy()) if copy else (self._fill, self._vent)
+
     @property
     def free_air_used_m3(self):
         """Air each channel drew from the supply, at ANR conditions (N,) [m^3]."""

@@ -22,7 +22,8 @@ import time
 import numpy as np
 
 from flectofold_model._validate import in_range, real_array, real_scalar
-from flectofold_model.actuation import actuated_like, ActuationModel, PneumaticPlant
+from flectofold_model.actuation import (actuated_like, ActuationModel, DEMONSTRATOR_ACTUATED,
+                                        PneumaticPlant)
 from flectofold_model.actuation.circuit import DEMONSTRATOR_PLANT
 from flectofold_model.actuation.cushion_map import CushionMap
 from flectofold_model.control.decimation import PublishDecimator
@@ -31,6 +32,9 @@ from flectofold_model.control.pressure_loop import ControllerParameters, Pressur
 
 #: States a loop keeps for its rows: rows that take them at least this often lose none.
 SAMPLE_HISTORY = 4096
+#: Panel-periods one call of the compiled simulation runs at most (a few ms of work), so that a
+#: loop with a deadline looks at the clock often enough.
+RUN_BUDGET = 16384
 
 
 @dataclass(frozen=True)
@@ -98,9 +102,11 @@ class PanelLoops:
         The tabulated map of ``model``; built from it when not given.
     max_call_s : float, optional
         Simulated drivers only: the longest one :meth:`advance_to` call works [s, wall clock].
-        A loop that cannot keep up with its clock then stops there and goes on at the next
-        call (:attr:`behind_s` says how far behind it is), so that its process still
-        publishes and answers signals. ``None`` (default): every call catches up fully.
+        A loop that cannot keep up with its clock then stops there and goes on at a later
+        call (:attr:`behind_s` says how far behind it is); calls within as long again as it
+        worked do no work, so that its process keeps at least half its time to publish and
+        answer signals, however many of its nodes tick. ``None`` (default): every call
+        catches up fully.
     """
 
     def __init__(self, model, driver, control_period_s=0.1, parameters=ControllerParameters(),
@@ -122,6 +128,9 @@ class PanelLoops:
                                                                     60.0)
         self.behind_s = 0.0
         """Clock time the loop has yet to simulate after its last call [s]."""
+        self._resting_until = -math.inf
+        self.skipped_s = 0.0
+        """Clock time not simulated, in all, because jumps exceeded the catch-up limit [s]."""
         self.quiet_periods = 1 if quiet_period_s is None else max(1, math.floor(
             _positive('quiet_period_s', quiet_period_s, 60.0) / self.period_s + 1e-9))
         self.quiet_periods_run = 0
@@ -138,6 +147,13 @@ class PanelLoops:
         self._sampler = None
         self.samples = deque(maxlen=SAMPLE_HISTORY)
         self._sequence = 0
+        self.compiled = isinstance(driver, SimulatedCushions) and \
+            type(driver).advance is SimulatedCushions.advance and \
+            driver.plant.integrator == 'embedded'
+        """Whether whole runs of periods go to the compiled simulation (a simulated driver on
+        the compiled engine) rather than one period per Python call."""
+        self._runs_per_call = max(8, min(512, RUN_BUDGET // len(model)))
+        self._work = None
 
     def __len__(self):
         return self._setpoint.shape[0]
@@ -192,11 +208,27 @@ class PanelLoops:
             # The plant holds through the time beyond the catch-up limit: its state, at the
             # new time, starts a new grid of samples.
             self.time_s += skipped * self.period_s
+            self.skipped_s += skipped * self.period_s
             periods -= skipped
             if self._sampler is not None:
                 self._sampler.restart()
                 self._sample(self.time_s)
-        deadline = None if self.max_call_s is None else time.monotonic() + self.max_call_s
+        started = time.monotonic()
+        if started < self._resting_until:
+            # behind, and resting after a call that ran out of time: the process's turn
+            self.behind_s = periods * self.period_s
+            return LoopAdvance(0, skipped * self.period_s, self.behind_s)
+        deadline = None if self.max_call_s is None else started + self.max_call_s
+        run_periods = self._run_compiled if self.compiled else self._run_periods
+        run, periods = run_periods(periods, deadline)
+        self.behind_s = periods * self.period_s
+        if periods:  # out of time: rest as long as this call worked
+            finished = time.monotonic()
+            self._resting_until = finished + (finished - started)
+        return LoopAdvance(run, skipped * self.period_s, self.behind_s)
+
+    def _run_periods(self, periods, deadline):
+        """Run ``periods`` periods one Python call each; return the runs and the periods left."""
         run = 0
         while periods:
             span = min(self.quiet_periods, periods) if self._resting() else 1
@@ -215,8 +247,51 @@ class PanelLoops:
             self._sample(self.time_s)
             if deadline is not None and time.monotonic() > deadline:
                 break  # out of time for this call: the rest waits for the next one
-        self.behind_s = periods * self.period_s
-        return LoopAdvance(run, skipped * self.period_s, self.behind_s)
+        return run, periods
+
+    def _run_compiled(self, periods, deadline):
+        """:meth:`_run_periods` in the compiled simulation, many periods per call."""
+        controller, plant, count = self.controller, self.driver.plant, len(self)
+        if self._work is None:
+            from flectofold_model.control.simulation_kernel import run_periods
+            size = self._runs_per_call
+            self._work = (run_periods, np.zeros(size, dtype=np.int64),
+                          *(np.empty((size + 1, count)) for _ in range(3)),
+                          np.full(count, np.nan))
+        run_periods, spans, measured, closure, fold_angle, rested = self._work
+        # nothing has rested yet: NaN equals no setpoint, so the first run cannot be quiet
+        rested[:] = np.nan if self._rested_setpoint is None else self._rested_setpoint
+        fill, vent = self.driver.valve_openings(copy=False)
+        run = 0
+        while periods:
+            runs = min(self._runs_per_call, periods)
+            noise = plant.sensors.draw_ahead(runs)
+            measured[0] = self.measured_pa
+            closure[0], fold_angle[0] = self._current_feedback()
+            arrays, constants, sensors = plant.kernel_view()
+            made, done, quiet, accepted, rejected = run_periods(
+                periods, runs, self.period_s, self.quiet_periods, self._setpoint, rested,
+                noise, controller.state, controller.codes, controller.kernel_parameters,
+                controller.kernel_circuit, controller.kernel_tables, arrays, constants, sensors,
+                fill, vent, spans, measured, closure, fold_angle)
+            if made < runs:
+                plant.sensors.put_back(noise[made:])
+            self._rested_setpoint = rested
+            self.quiet_periods_run += quiet
+            start_s = self.time_s
+            for r in range(made):
+                self.time_s += int(spans[r]) * self.period_s
+                if spans[r] > 1:
+                    self._hold_samples(self.time_s, (closure[r], fold_angle[r]), measured[r])
+                self._sample(self.time_s, (closure[r + 1], fold_angle[r + 1]), measured[r + 1])
+            plant.account(self.time_s - start_s, accepted, rejected)
+            self.measured_pa = measured[made].copy()
+            self._feedback = (closure[made].copy(), fold_angle[made].copy())
+            periods -= done
+            run += made
+            if deadline is not None and time.monotonic() > deadline:
+                break  # out of time for this call: the rest waits for the next one
+        return run, periods
 
     # -- samples ---------------------------------------------------------------------------
 
@@ -234,15 +309,18 @@ class PanelLoops:
         if self._sampler is None or shortest != self._sampler.period_s:
             self._sampler = PublishDecimator(shortest, slack_s=0.5 * self.period_s)
 
-    def _sample(self, clock_s):
+    def _sample(self, clock_s, feedback=None, measured_pa=None):
         """Keep the feedback when the sampler says so, at the loop clock's own time.
 
         A loop that catches up a long clock jump in one call thereby still leaves its states
-        at their own times, for nodes to publish with the right stamps.
+        at their own times, for nodes to publish with the right stamps. ``feedback`` and
+        ``measured_pa`` are the state at ``clock_s``; the last period's when not given.
         """
         if self._sampler is None or not self._sampler.due(clock_s):
             return
-        self._keep(clock_s, self._current_feedback(), self.measured_pa)
+        if feedback is None:
+            feedback, measured_pa = self._current_feedback(), self.measured_pa
+        self._keep(clock_s, feedback, measured_pa)
 
     def _hold_samples(self, end_s, feedback, measured_pa):
         """Keep the states due inside a quiet span that ended at ``end_s``, as last measured.
@@ -261,18 +339,20 @@ class PanelLoops:
     def _keep(self, time_s, feedback, measured_pa):
         self._sequence += 1
         closure, fold_angle = feedback
-        self.samples.append(LoopSample(self._sequence, time_s, closure, fold_angle,
+        self.samples.append(LoopSample(self._sequence, time_s, closure.copy(), fold_angle.copy(),
                                        measured_pa.copy()))
 
-    def samples_since(self, sequence):
+    def samples_since(self, sequence, limit=None):
         """Return the kept :class:`LoopSample` objects after ``sequence``, oldest first.
 
         Costs the number of samples returned, not the number kept: sequences count up by one,
-        so the newest ``last - sequence`` samples are the ones wanted.
+        so the newest ``last - sequence`` samples are the ones wanted. ``limit``: at most that
+        many, the newest.
         """
         if not self.samples or self.samples[-1].sequence <= sequence:
             return []
-        count = min(self.samples[-1].sequence - sequence, len(self.samples))
+        count = min(self.samples[-1].sequence - sequence, len(self.samples),
+                    len(self.samples) if limit is None else limit)
         return list(islice(reversed(self.samples), count))[::-1]
 
     # -- the loop --------------------------------------------------------------------------
@@ -300,13 +380,9 @@ class PanelLoops:
     def _current_feedback(self):
         """Closure and fold angle (N,) of the last period, computed once per period."""
         if self._feedback is None:
-            closure = self.map.closure(np.maximum(self.controller.filtered_gauge_pa, 0.0))
-            table = self.map.fold_angle_rad
-            position = closure * (table.shape[1] - 1)
-            lower = np.minimum(position.astype(np.intp), table.shape[1] - 2)
-            rows = np.arange(len(self))
-            low, high = table[rows, lower], table[rows, lower + 1]
-            self._feedback = (closure, low + (position - lower) * (high - low))
+            closure, fold_angle = np.empty(len(self)), np.empty(len(self))
+            self.controller.feedback(closure, fold_angle)
+            self._feedback = (closure, fold_angle)
         return self._feedback
 
     @property
@@ -353,7 +429,10 @@ class LoopRow:
 
     def set_setpoint(self, closure):
         """Track ``closure`` in [0, 1] from the next period."""
-        self.loops.set_setpoints(closure, self.index)
+        if type(closure) is float and 0.0 <= closure <= 1.0:  # a node's every tick: no NaN
+            self.loops._setpoint[self.index] = closure
+        else:
+            self.loops.set_setpoints(closure, self.index)
 
     @property
     def setpoint(self):
@@ -364,11 +443,15 @@ class LoopRow:
         """Have the loops keep states at least every ``period_s`` [s] for this row."""
         self.loops.request_sample_period(self.index, period_s)
 
-    def samples_since(self, sequence):
-        """Return this panel's :class:`RowSample` of every state kept after ``sequence``."""
+    def samples_since(self, sequence, limit=None):
+        """Return this panel's :class:`RowSample` of every state kept after ``sequence``.
+
+        ``limit``: of the newest that many only.
+        """
         i = self.index
         return [RowSample(s.sequence, s.time_s, float(s.closure[i]), float(s.fold_angle_rad[i]),
-                          float(s.measured_pa[i])) for s in self.loops.samples_since(sequence)]
+                          float(s.measured_pa[i]))
+                for s in self.loops.samples_since(sequence, limit)]
 
     @property
     def closure(self):
@@ -398,7 +481,7 @@ class LoopRow:
     @property
     def fault(self):
         """The latched circuit :class:`~.pressure_loop.Fault`."""
-        return self.loops.controller.fault[self.index]
+        return self.loops.controller.fault_at(self.index)
 
     def reset_faults(self):
         """Clear this panel's latched circuit fault."""
@@ -424,6 +507,11 @@ class LoopRow:
         return self.loops.behind_s
 
     @property
+    def skipped_s(self):
+        """Clock time the loops did not simulate, in all: jumps past the catch-up limit [s]."""
+        return self.loops.skipped_s
+
+    @property
     def sensor_noise_pa(self):
         """Standard deviation of the cushion sensor's noise [Pa]."""
         return self.loops.driver.circuit.sensor_noise_pa
@@ -434,6 +522,26 @@ def _positive(name, value, largest):
     if not 0.0 < value <= largest:
         raise ValueError(f'{name} must lie in (0, {largest:g}], got {value:g}')
     return value
+
+
+def compile_kernels():
+    """Compile the kernels simulated loops run, or load them from the cache, before they run.
+
+    Compiling takes tens of CPU seconds the first time after a change to the model (then the
+    cache has them, see :mod:`flectofold_model._compiled`): a process calls this while it
+    starts, not in its first loop call. Processes starting together compile once.
+    """
+    from flectofold_model._compiled import compile_lock
+    with compile_lock():
+        model = ActuationModel([DEMONSTRATOR_ACTUATED])
+        cushion_map = CushionMap(model, samples=3)
+        plant = PneumaticPlant(DEMONSTRATOR_PLANT, cushion_map, 1, integrator='embedded')
+        loops = PanelLoops(model, SimulatedCushions(plant), 0.1,
+                           ControllerParameters(hold_band_pa=1.0), quiet_period_s=0.2,
+                           cushion_map=cushion_map)
+        loops.request_sample_period(0, 0.1)
+        loops.advance_to(0.0)
+        loops.advance_to(0.3)
 
 
 def facade_loops(facade, panel_ids, control_period_s=0.1, parameters=ControllerParameters(),

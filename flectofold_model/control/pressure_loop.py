@@ -29,6 +29,7 @@ Structure (vectorised over panels, one call per control tick):
 
 from dataclasses import dataclass, fields
 import enum
+import math
 import warnings
 
 import numpy as np
@@ -36,7 +37,7 @@ import numpy as np
 from flectofold_model._validate import in_range, real_array, real_fields, real_scalar
 from flectofold_model.actuation import (AIR_GAS_CONSTANT, ATMOSPHERIC_PRESSURE_PA, CushionMap,
                                         PlantParameters, UnreachableClosureWarning)
-from flectofold_model.actuation.flow import mass_flow
+from flectofold_model.actuation.flow import ANR_DENSITY_KG_M3, ANR_TEMPERATURE_K
 
 
 class Fault(enum.Enum):
@@ -125,7 +126,12 @@ class ValveCommand:
 
 
 class PressureController:
-    """Pressure loops and fault monitors of N panels that share one static map per panel."""
+    """Pressure loops and fault monitors of N panels that share one static map per panel.
+
+    The loops run in the compiled kernel of :mod:`.loop_kernel`; this class holds their state
+    (one float row per quantity, integer codes for the fault and the safe action), validates
+    what comes in and names what goes out.
+    """
 
     def __init__(self, cushion_map, plant, parameters=ControllerParameters(),
                  safe_action=SafeAction.VENT):
@@ -138,36 +144,77 @@ class PressureController:
         if parameters.max_gauge_pa >= plant.relief_cracking_pa:
             raise ValueError(f'max_gauge_pa={parameters.max_gauge_pa:g} Pa must stay below the '
                              f'relief valve, which cracks at {plant.relief_cracking_pa:g} Pa')
+        from flectofold_model.control import loop_kernel  # numba: a second to import
+        self._kernel = loop_kernel
         self.map = cushion_map
         self.plant = plant
         self.parameters = parameters
         count = cushion_map.pressure_pa.shape[0]
-        self.fault = np.full(count, Fault.NONE, dtype=object)
-        self._safe_action = np.full(count, SafeAction.VENT, dtype=object)
-        self.set_safe_action(safe_action)
-        self.target_gauge_pa = np.zeros(count)
-        self.limited_by_supply = np.zeros(count, dtype=bool)
-        self._supply_gauge_pa = np.full(count, np.nan)
-        self.reference_gauge_pa = np.zeros(count)
-        self.filtered_gauge_pa = np.zeros(count)
-        self._integral = np.zeros(count)
-        self._last_reading = np.full(count, np.nan)
-        self._started = np.zeros(count, dtype=bool)
-        self._timers = {name: np.zeros(count) for name in
-                        ('stuck', 'dropout', 'leak', 'inflow', 'supply')}
-        self._window_start_pa = {'leak': np.zeros(count), 'inflow': np.zeros(count)}
-        self._expected_change_pa = np.zeros(count)
-        self._fill_capacity = np.zeros(count)
-        self._vent_capacity = np.zeros(count)
-        self._capacitance = np.ones(count)
-        self._last_command = ValveCommand(np.zeros(count), np.zeros(count))
-        self.target_pressure_limit_pa = np.minimum(
+        self.state = np.zeros((loop_kernel.STATE_ROWS, count))
+        """Every panel's loop state, one row per quantity (:mod:`.loop_kernel` names them)."""
+        self.codes = np.zeros((2, count), dtype=np.int64)
+        """Every panel's latched fault and safe action, as :mod:`.loop_kernel` codes."""
+        self.state[[loop_kernel.SUPPLY, loop_kernel.LAST_READING]] = np.nan
+        self.state[loop_kernel.CAPACITANCE] = 1.0
+        self.state[loop_kernel.TARGET_LIMIT] = np.minimum(
             cushion_map.pressure_pa[:, -1],
             parameters.max_gauge_pa - 3 * parameters.pressure_margin_pa)
+        self.set_safe_action(safe_action)
+        self.kernel_parameters = loop_kernel.parameter_tuple(parameters)
+        """The parameters as the compiled loop takes them."""
+        self.kernel_circuit = (
+            plant.fill_conductance_m3_s_pa, plant.vent_conductance_m3_s_pa,
+            plant.critical_ratio,
+            ANR_DENSITY_KG_M3 * math.sqrt(ANR_TEMPERATURE_K / plant.temperature_k),
+            plant.dead_volume_m3, AIR_GAS_CONSTANT * plant.temperature_k)
+        """The circuit's constants as the compiled loop takes them."""
+        self.kernel_tables = cushion_map.compiled_tables()
+        """The static map's tables as the compiled loop takes them."""
+        self._fill = np.zeros(count)
+        self._vent = np.zeros(count)
         self._warn_if_unreachable()
 
     def __len__(self):
-        return self.fault.shape[0]
+        return self.state.shape[1]
+
+    def _row(self, name):
+        view = self.state[getattr(self._kernel, name)]
+        view.flags.writeable = False
+        return view
+
+    @property
+    def target_gauge_pa(self):
+        """Pressure target of each loop [Pa gauge] (N,), read-only."""
+        return self._row('TARGET')
+
+    @property
+    def reference_gauge_pa(self):
+        """Rate-limited pressure reference [Pa gauge] (N,), read-only."""
+        return self._row('REFERENCE')
+
+    @property
+    def filtered_gauge_pa(self):
+        """Filtered measured pressure [Pa gauge] (N,), read-only."""
+        return self._row('FILTERED')
+
+    @property
+    def target_pressure_limit_pa(self):
+        """Highest target each loop aims at [Pa gauge] (N,), read-only."""
+        return self._row('TARGET_LIMIT')
+
+    @property
+    def limited_by_supply(self):
+        """Whether a weak supply holds the target below what the setpoint needs (N,)."""
+        return self.state[self._kernel.LIMITED] != 0.0
+
+    @property
+    def fault(self):
+        """Latched :class:`Fault` of each panel (N,), an object array."""
+        return np.array([_FAULTS[code] for code in self.codes[self._kernel.FAULT]], dtype=object)
+
+    def fault_at(self, index):
+        """Latched :class:`Fault` of panel ``index``."""
+        return _FAULTS[self.codes[self._kernel.FAULT, index]]
 
     def _warn_if_unreachable(self):
         """Warn, naming the reachable closure, where the supply or the maximum cannot close."""
@@ -189,18 +236,19 @@ class PressureController:
         """Choose VENT or HOLD for faulted panels (all, or those selected by ``panels``)."""
         if not isinstance(action, SafeAction):
             raise TypeError(f'action must be a SafeAction, got {action!r}')
-        self._safe_action[self._selection(panels)] = action
+        code = self._kernel.VENT if action is SafeAction.VENT else self._kernel.HOLD
+        self.codes[self._kernel.SAFE_ACTION, self._selection(panels)] = code
 
     def reset_faults(self, panels=None):
         """Clear latched faults; the loop restarts from the current measurement."""
-        selected = self._selection(panels)
-        self.fault[selected] = Fault.NONE
-        self._started[selected] = False
-        for timer in self._timers.values():
-            timer[selected] = 0.0
-        self._expected_change_pa[selected] = 0.0
-        for start in self._window_start_pa.values():
-            start[selected] = self.filtered_gauge_pa[selected]
+        k, selected = self._kernel, self._selection(panels)
+        self.codes[k.FAULT, selected] = k.NO_FAULT
+        self.state[k.STARTED, selected] = 0.0
+        for timer in (k.STUCK_TIMER, k.DROPOUT_TIMER, k.LEAK_TIMER, k.INFLOW_TIMER,
+                      k.SUPPLY_TIMER, k.EXPECTED_CHANGE):
+            self.state[timer, selected] = 0.0
+        for start in (k.LEAK_START, k.INFLOW_START):
+            self.state[start, selected] = self.state[k.FILTERED, selected]
 
     def _selection(self, panels):
         mask = np.zeros(len(self), dtype=bool)
@@ -210,7 +258,12 @@ class PressureController:
     @property
     def last_command(self):
         """The :class:`ValveCommand` of the last :meth:`step`."""
-        return self._last_command
+        k = self._kernel
+        return ValveCommand(self.state[k.LAST_FILL].copy(), self.state[k.LAST_VENT].copy())
+
+    def feedback(self, closure, fold_angle_rad):
+        """Write each panel's closure and apex fold angle [rad] at its filtered pressure (N,)."""
+        self._kernel.feedback_all(self.state, self.kernel_tables, closure, fold_angle_rad)
 
     def pressure_for_closure(self, closure):
         """Gauge-pressure target [Pa] for closure setpoints (N,) in [0, 1]."""
@@ -228,188 +281,18 @@ class PressureController:
         dt_s = real_scalar('dt_s', dt_s)
         if dt_s <= 0.0:
             raise ValueError(f'dt_s must be positive, got {dt_s:g} s')
-        measured = np.broadcast_to(np.asarray(measured_pa, dtype=np.float64), (len(self),))
-        supply = np.broadcast_to(np.asarray(measured_supply_pa, dtype=np.float64), (len(self),))
-        wanted = self.pressure_for_closure(closure_setpoint)
-        # A weak supply lowers what can be reached: aim there rather than fill against it. No
-        # supply at all is a fault (see _detect_faults), not a reason to move. The supply is
-        # smoothed first: its noise would otherwise shake the target and the feed-forward.
-        supply_gauge = self._smooth_supply(dt_s, supply - ATMOSPHERIC_PRESSURE_PA)
-        present = supply_gauge > self.parameters.supply_margin_pa
-        reachable = supply_gauge - 2 * self.parameters.supply_margin_pa
-        self.limited_by_supply = present & (reachable < wanted)
-        self.target_gauge_pa = np.where(self.limited_by_supply, np.maximum(reachable, 0.0),
-                                        wanted)
-        readable = np.isfinite(measured)
-        gauge = np.where(readable, measured - ATMOSPHERIC_PRESSURE_PA, self.filtered_gauge_pa)
-        self._filter(dt_s, gauge, readable)
-        previous_reference = self.reference_gauge_pa.copy()
-        self._move_reference(dt_s)
-        fill, vent = self._regulate(dt_s, previous_reference, supply)
-        self._detect_faults(dt_s, measured, readable, supply)
-        fill, vent = self._apply_safety(fill, vent, readable)
-        self._last_reading = np.where(readable, measured, np.nan)
-        self._last_command = ValveCommand(fill, vent)
-        return self._last_command
+        count = len(self)
+        setpoint = in_range('closure', np.broadcast_to(
+            real_array('closure', closure_setpoint), (count,)), 0.0, 1.0)
+        measured = np.broadcast_to(np.asarray(measured_pa, dtype=np.float64), (count,))
+        supply = np.broadcast_to(np.asarray(measured_supply_pa, dtype=np.float64), (count,))
+        self._kernel.control_all(
+            dt_s, np.ascontiguousarray(setpoint, dtype=np.float64),
+            np.ascontiguousarray(measured), np.ascontiguousarray(supply), self.state,
+            self.codes, self.kernel_parameters, self.kernel_circuit, self.kernel_tables,
+            self._fill, self._vent)
+        return ValveCommand(self._fill.copy(), self._vent.copy())
 
-    def _smooth_supply(self, dt_s, supply_gauge):
-        finite = np.isfinite(supply_gauge)
-        fresh = finite & ~np.isfinite(self._supply_gauge_pa)
-        self._supply_gauge_pa = np.where(fresh, supply_gauge, self._supply_gauge_pa)
-        blend = dt_s / (self.parameters.supply_filter_s + dt_s)
-        self._supply_gauge_pa = np.where(
-            finite, self._supply_gauge_pa + blend * (supply_gauge - self._supply_gauge_pa),
-            np.nan)
-        return self._supply_gauge_pa
 
-    def _filter(self, dt_s, gauge, readable):
-        fresh = readable & ~self._started
-        self.filtered_gauge_pa = np.where(fresh, gauge, self.filtered_gauge_pa)
-        self.reference_gauge_pa = np.where(fresh, gauge, self.reference_gauge_pa)
-        self._integral = np.where(fresh, 0.0, self._integral)
-        self._started |= readable
-        blend = dt_s / (self.parameters.measurement_filter_s + dt_s)
-        self.filtered_gauge_pa = np.where(
-            readable, self.filtered_gauge_pa + blend * (gauge - self.filtered_gauge_pa),
-            self.filtered_gauge_pa)
-
-    def _move_reference(self, dt_s):
-        largest = self.parameters.setpoint_rate_pa_per_s * dt_s
-        self.reference_gauge_pa += np.clip(self.target_gauge_pa - self.reference_gauge_pa,
-                                           -largest, largest)
-
-    def _regulate(self, dt_s, previous_reference, supply):
-        parameters = self.parameters
-        pressure = self.filtered_gauge_pa
-        error = self.reference_gauge_pa - pressure
-        rate = ((self.reference_gauge_pa - previous_reference) / dt_s
-                + (error + self._integral / parameters.integral_time_s)
-                / parameters.time_constant_s)
-        volume, compliance = self.map(np.clip(pressure, 0.0, None))
-        absolute = pressure + ATMOSPHERIC_PRESSURE_PA
-        capacitance = (volume + self.plant.dead_volume_m3 + absolute * compliance) / (
-            AIR_GAS_CONSTANT * self.plant.temperature_k)
-        demand = capacitance * rate
-        upstream = np.where(np.isfinite(supply), supply, 0.0)
-        # Opening the fill valve against a supply no higher than the cushion would drain it.
-        can_fill = upstream > absolute + self.parameters.supply_margin_pa
-        # the unchecked ISO 6358 flow: every argument here is built finite and positive
-        fill_capacity = mass_flow(np.maximum(upstream, absolute + 1.0), absolute,
-                                  self.plant.fill_conductance_m3_s_pa, self.plant.critical_ratio,
-                                  self.plant.temperature_k)
-        vent_capacity = mass_flow(np.maximum(absolute, ATMOSPHERIC_PRESSURE_PA + 1.0),
-                                  ATMOSPHERIC_PRESSURE_PA, self.plant.vent_conductance_m3_s_pa,
-                                  self.plant.critical_ratio, self.plant.temperature_k)
-        self._fill_capacity = np.where(can_fill, fill_capacity, 0.0)
-        self._vent_capacity, self._capacitance = vent_capacity, capacitance
-        fill_wish = np.where((demand > 0) & can_fill, demand / fill_capacity, 0.0)
-        vent_wish = np.where(demand < 0, -demand / vent_capacity, 0.0)
-        fill, vent = np.clip(fill_wish, 0.0, 1.0), np.clip(vent_wish, 0.0, 1.0)
-        saturated = ((fill_wish > 1.0) & (error > 0)) | ((vent_wish > 1.0) & (error < 0))
-        resting = (self.reference_gauge_pa == self.target_gauge_pa) & \
-            (np.abs(self.target_gauge_pa - pressure) < parameters.hold_band_pa)
-        self._integral = np.where(saturated | resting, self._integral,
-                                  self._integral + error * dt_s)
-        return np.where(resting, 0.0, fill), np.where(resting, 0.0, vent)
-
-    def _detect_faults(self, dt_s, measured, readable, supply):
-        parameters, timers = self.parameters, self._timers
-        healthy = self.fault == Fault.NONE
-        timers['dropout'] = np.where(readable, 0.0, timers['dropout'] + dt_s)
-        moving_air = (self._last_command.fill_opening > 0.05) | \
-            (self._last_command.vent_opening > 0.05)
-        expect_change = moving_air | (parameters.expected_noise_pa > 0)
-        repeated = readable & (measured == self._last_reading) & expect_change
-        timers['stuck'] = np.where(repeated, timers['stuck'] + dt_s, 0.0)
-        leaking = self._leak_stalled(dt_s, readable)
-        inflowing = self._uncommanded_inflow(dt_s, readable)
-        # A supply reading no higher than the atmosphere means no supply at all; a weak one
-        # only limits the target (see step).
-        no_supply = ~(supply - ATMOSPHERIC_PRESSURE_PA > parameters.supply_margin_pa)
-        timers['supply'] = np.where(no_supply, timers['supply'] + dt_s, 0.0)
-        over = readable & (measured - ATMOSPHERIC_PRESSURE_PA
-                           > parameters.max_gauge_pa - parameters.pressure_margin_pa)
-        checks = ((over, Fault.OVERPRESSURE),
-                  (timers['dropout'] >= parameters.dropout_time_s, Fault.SENSOR_DROPOUT),
-                  (timers['stuck'] >= parameters.stuck_time_s, Fault.SENSOR_STUCK),
-                  (timers['supply'] >= parameters.supply_time_s, Fault.SUPPLY_LOST),
-                  (inflowing, Fault.FILL_VALVE_STUCK),
-                  (leaking, Fault.LEAK))
-        for condition, fault in checks:
-            raised = healthy & condition
-            self.fault[raised] = fault
-            healthy &= ~raised
-
-    def _leak_stalled(self, dt_s, readable):
-        """Flag panels whose pressure stalls short of the reference with the fill valve open.
-
-        True after a whole ``leak_time_s`` window with the fill valve wide open and the
-        pressure short of the reference, in which it still gained less than ``leak_error_pa``:
-        a leak larger than the valve can make up.
-        """
-        parameters = self.parameters
-        timer, start = self._timers['leak'], self._window_start_pa['leak']
-        armed = readable & (self._last_command.fill_opening >= 0.999) & \
-            (self.reference_gauge_pa - self.filtered_gauge_pa > parameters.leak_error_pa)
-        start[:] = np.where(armed & (timer > 0), start, self.filtered_gauge_pa)
-        timer[:] = np.where(armed, timer + dt_s, 0.0)
-        window_done = timer >= parameters.leak_time_s
-        stalled = window_done & (self.filtered_gauge_pa - start < parameters.leak_error_pa)
-        timer[window_done & ~stalled] = 0.0
-        return stalled
-
-    def _uncommanded_inflow(self, dt_s, readable):
-        """Flag panels whose venting does not lower the pressure as the valve model says.
-
-        Over each ``leak_time_s`` window the commanded openings predict a pressure change
-        from the same ISO 6358 valve model and capacitance the loop linearises with. Air
-        that the vent should have let out but that stayed means air comes in uncommanded: a
-        fill valve jammed open. Raised when the vent was meant to drop the pressure by more
-        than ``leak_error_pa`` and the pressure stayed more than half of that, and at least
-        ``leak_error_pa``, above the prediction.
-        """
-        parameters = self.parameters
-        timer, start = self._timers['inflow'], self._window_start_pa['inflow']
-        command = self._last_command
-        self._expected_change_pa += dt_s * (command.fill_opening * self._fill_capacity
-                                            - command.vent_opening * self._vent_capacity
-                                            ) / self._capacitance
-        # No vent takes the cushion below the atmosphere: without this floor, a full vent
-        # through the open stop (where the capacitance shrinks to the dead volume) predicts
-        # a drop far larger than the pressure has, and reads as air coming in.
-        np.maximum(self._expected_change_pa, -np.maximum(start, 0.0),
-                   out=self._expected_change_pa)
-        timer[:] = np.where(readable, timer + dt_s, 0.0)
-        window_done = timer >= parameters.leak_time_s
-        expected = self._expected_change_pa
-        unexplained = (self.filtered_gauge_pa - start) - expected
-        inflow = window_done & (expected < -parameters.leak_error_pa) & \
-            (unexplained > np.maximum(parameters.leak_error_pa, -0.5 * expected))
-        restart = window_done | ~readable
-        timer[restart] = 0.0
-        start[restart] = self.filtered_gauge_pa[restart]
-        self._expected_change_pa[restart] = 0.0
-        return inflow
-
-    def _apply_safety(self, fill, vent, readable):
-        parameters = self.parameters
-        gauge = self.filtered_gauge_pa
-        fill = np.where(gauge >= parameters.max_gauge_pa - 2 * parameters.pressure_margin_pa,
-                        0.0, fill)
-        blind = ~readable  # no trustworthy reading yet: do nothing rather than guess
-        fill = np.where(blind, 0.0, fill)
-        vent = np.where(blind, 0.0, vent)
-        faulted = self.fault != Fault.NONE
-        # Air coming in uncommanded would over-pressure a held panel: that one always vents.
-        forced_vent = self.fault == Fault.FILL_VALVE_STUCK
-        venting = faulted & ((self._safe_action == SafeAction.VENT) | forced_vent)
-        holding = faulted & ~venting
-        fill = np.where(faulted, 0.0, fill)
-        vent = np.where(venting, 1.0, np.where(holding, 0.0, vent))
-        # Near the maximum, or after an over-pressure until back below the fill cut-off,
-        # vent whatever the safe action: a held storm position must not stay over-pressured.
-        limit = parameters.max_gauge_pa - parameters.pressure_margin_pa
-        relieving = readable & ((gauge > limit)
-                                | ((self.fault == Fault.OVERPRESSURE)
-                                   & (gauge > limit - parameters.pressure_margin_pa)))
-        return fill, np.where(relieving, 1.0, vent)
+#: Fault of each code of :mod:`.loop_kernel`, in code order.
+_FAULTS = tuple(Fault)

@@ -1,9 +1,11 @@
 """The world around the facade: where the sun is, and a simulated clock for a sped-up day.
 
 - :mod:`.sun`: solar position and sun vectors by NREL's SPA (pvlib), sites and times;
+- :mod:`.ephemeris`: the same sun vectors, computed a batch ahead on a time grid and kept;
 - :mod:`.sim_clock`: wall seconds -> simulated time of a sped-up day.
 """
 
+from flectofold_model.environment.ephemeris import SunEphemeris
 from flectofold_model.environment.sim_clock import SimulatedClock
 from flectofold_model.environment.sun import (angle_of_incidence_rad, day_epochs,
                                               enu_from_azimuth_elevation, epoch_from_iso, Site,
@@ -11,7 +13,7 @@ from flectofold_model.environment.sun import (angle_of_incidence_rad, day_epochs
                                               sun_vector_enu)
 
 __all__ = [
-    'STUTTGART', 'SimulatedClock', 'Site', 'SolarPosition', 'angle_of_incidence_rad',
-    'day_epochs', 'enu_from_azimuth_elevation', 'epoch_from_iso', 'solar_position',
-    'sun_vector_enu',
+    'STUTTGART', 'SimulatedClock', 'Site', 'SolarPosition', 'SunEphemeris',
+    'angle_of_incidence_rad', 'day_epochs', 'enu_from_azimuth_elevation', 'epoch_from_iso',
+    'solar_position', 'sun_vector_enu',
 ]

@@ -135,6 +135,10 @@ class Bringup(Program):
         self.outputs = (run_directory(options.out, plan)
                         if options.record or options.rerun else None)
         self.started = self.day_started = time.monotonic()
+        self.day_ended = None
+        """When the clock reached the day's end (the wrap-up after it is not the day's)."""
+        self._panel_cpu_s = []
+        """CPU seconds of the panel processes at the day's start and end."""
         self.phase, self._phase_since = 'starting', self.started
         self.holds, self.held_s, self._held_since = 0, 0.0, None
         self.failed = False
@@ -192,6 +196,8 @@ class Bringup(Program):
             self._hold_clock_for_laggards()
             if self.monitor.clock_s is not None and \
                     self.monitor.clock_s >= self.plan.end_epoch_s:
+                self.day_ended = time.monotonic()
+                self._panel_cpu_s.append(_processes_cpu_s(self.children))
                 self._enter('ending')
         elif self.phase == 'ending':
             self._hold_clock_for_laggards()
@@ -223,6 +229,7 @@ class Bringup(Program):
     def _start_day(self):
         self.sun.release()
         self.day_started = time.monotonic()
+        self._panel_cpu_s = [_processes_cpu_s(self.children)]
         self._enter('day')
 
     def _hold_clock_for_laggards(self):
@@ -247,7 +254,7 @@ class Bringup(Program):
     # -- the end ----------------------------------------------------------------------------
 
     def close(self, interrupted):
-        wall_s = time.monotonic() - self.day_started
+        wall_s = (self.day_ended or time.monotonic()) - self.day_started
         self._stop_children()
         print('\n'.join(self.summary_lines(wall_s, interrupted,
                                            time.monotonic() - self.started)), flush=True)
@@ -297,6 +304,11 @@ class Bringup(Program):
                       f'{rejected:.0f}; panels in setpoint timeout {timeouts}',
                       f'  simulation: at most {monitor.largest_behind_s():.1f} s behind the '
                       f'clock (a loop call works at most {MAX_CALL_S:g} s)']
+        if self.children and len(self._panel_cpu_s) == 2 and None not in self._panel_cpu_s \
+                and wall_s > 0.0:
+            spent = self._panel_cpu_s[1] - self._panel_cpu_s[0]
+            lines.append(f"  panel processes: {spent:.1f} CPU s in the day's {wall_s:.1f} s "
+                         f'({spent / wall_s:.2f} cores together)')
         lines.append(f'  CPU {cpu_s:.1f} s in {process_wall_s:.0f} s '
                      f'({cpu_s / max(process_wall_s, 1e-9):.2f} cores); peak RSS '
                      f'{usage.ru_maxrss / 1024:.0f} MB this process'
@@ -317,6 +329,19 @@ def _stop(processes, timeout_s):
         except subprocess.TimeoutExpired:
             process.kill()
             process.wait()
+
+
+def _processes_cpu_s(processes):
+    """CPU seconds (user + system) the processes have used so far; None where /proc is not."""
+    total = 0.0
+    for process in processes:
+        try:
+            with open(f'/proc/{process.pid}/stat') as stat:
+                fields = stat.read().rsplit(')', 1)[1].split()
+        except OSError:
+            return None
+        total += (int(fields[11]) + int(fields[12])) / os.sysconf('SC_CLK_TCK')
+    return total
 
 
 def _describe(process):

@@ -78,8 +78,13 @@ class DayPlan:
 
     @property
     def setpoint_period_s(self):
-        """Coordinator heartbeat: 1 s, or 2 clock ticks."""
-        return max(1.0, 2.0 * self.clock_tick_s)
+        """Coordinator heartbeat: 1 s, 2 clock ticks, or a tenth of the panels' watchdog.
+
+        The heartbeat only keeps the watchdog fed (a decision publishes its setpoints at
+        once): ten per watchdog time is margin enough, and at 360x it spares the coordinator
+        36 setpoints every other clock tick.
+        """
+        return max(1.0, 2.0 * self.clock_tick_s, self.setpoint_timeout_s / 10.0)
 
     # -- node parameters (plain values, as launch_ros and rclpy's Parameter both take) -------
 

@@ -14,7 +14,7 @@ from rclpy.clock import Clock, ClockType
 from rclpy.node import Node
 from std_msgs.msg import Float64
 
-from flectofold_model.environment import sun_vector_enu
+from flectofold_model.environment import SunEphemeris
 from flectofold_model.facade import DEFAULT_FACADE, load_facade
 from flectofold_model.scheduling import FacadeSchedule
 from flectofold_model.scheduling.facade_schedule import representative_panel
@@ -52,6 +52,7 @@ class CoordinatorNode(Node):
         self.facade = load_facade(path)
         self.period_s = float(self.facade.control.get('period_s', 60.0))
         self.look_ahead_s = float(self.facade.control.get('look_ahead_s', 0.0))
+        self._ephemeris = SunEphemeris(self.facade.site, self.period_s)
         self.schedule = None
         self._table = ShadingTable(representative_panel(self.facade))  # seconds: not in a callback
         self.commanded = None
@@ -170,10 +171,11 @@ class CoordinatorNode(Node):
     def _sun_window(self, now_s, sun):
         if self.look_ahead_s <= 0.0:
             return sun
-        ahead = now_s + self.period_s * (1 + math.floor(self.look_ahead_s / self.period_s))
-        times = list(_frange(now_s + self.period_s, ahead, self.period_s))
-        predicted = sun_vector_enu(times, self.facade.site) if times else []
-        return [sun, *predicted]
+        # the predictions lie on the decision period's grid, where the ephemeris has them
+        first = math.floor(now_s / self.period_s) + 1
+        times = [(first + k) * self.period_s
+                 for k in range(math.floor(self.look_ahead_s / self.period_s + 1e-9))]
+        return [sun, *self._ephemeris.enu(times)] if times else [sun]
 
     def _decide(self):
         now = self._now_s()
@@ -238,13 +240,6 @@ class CoordinatorNode(Node):
             reasons = Counter(reason.value for reason in self.last_result.reason)
             values.update({f'reason_{name}': count for name, count in reasons.items()})
         return diagnostics.status(self, level, 'schedule', self.facade.name, message, values)
-
-
-def _frange(start, stop, step):
-    value = start
-    while value < stop - 1e-9:
-        yield value
-        value += step
 
 
 def main(args=None):

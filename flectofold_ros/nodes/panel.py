@@ -16,8 +16,9 @@ from rclpy.time import Time
 from sensor_msgs.msg import FluidPressure, JointState
 from std_msgs.msg import Float64, String
 
-from flectofold_model.control import (ControllerParameters, facade_loops, Fault, PublishDecimator,
-                                      SafeAction, SafeBehaviour, SetpointGuard, SetpointState)
+from flectofold_model.control import (compile_kernels, ControllerParameters, facade_loops, Fault,
+                                      PublishDecimator, SafeAction, SafeBehaviour, SetpointGuard,
+                                      SetpointState)
 from flectofold_model.facade import DEFAULT_FACADE, load_facade
 from flectofold_ros import contract, diagnostics
 from flectofold_ros.interfaces import publisher, service, subscription
@@ -58,6 +59,9 @@ LOOP_SETTINGS = ('facade_file', 'hardware', 'control_period_s', 'control.time_co
 MAX_CALL_S = 0.25
 #: A loop further behind its clock than this says it is overloaded [s].
 OVERLOADED_S = 1.0
+#: A tick publishes at most this many of the states its loop kept since the last one (the
+#: newest): a loop catching up hours keeps thousands, which would starve the process.
+MAX_STATES_PER_TICK = 20
 USAGE = 'panel_node --ros-args -r __ns:=/facade/<id> [-p name:=value ...]'
 
 
@@ -117,7 +121,7 @@ class PanelNode(Node):
         self._last_sequence = 0
         self._published = {'fault': None, 'status': None}
         self._rejected_since_report = 0
-        self._skipped_s = 0.0
+        self._states_skipped = 0
         self.create_timer(self._value('control_period_s'), self._tick)
         self.create_timer(self._value('diagnostics_period_s'), self._report,
                           clock=Clock(clock_type=ClockType.STEADY_TIME))
@@ -155,16 +159,20 @@ class PanelNode(Node):
         self.row.set_setpoint(closure)
         advance = self.row.loops.advance_to(now)
         if advance.skipped_s > 0.0:
-            self._skipped_s += advance.skipped_s
             self.get_logger().warning(f'the clock jumped: {advance.skipped_s:.0f} s were not '
-                                      f'simulated (the plant held)')
+                                      f'simulated (the plant held; {self.row.skipped_s:.0f} s in '
+                                      f'all)', throttle_duration_sec=5.0)
         self._publish_latched(state)
         self._publish_samples()
 
     def _publish_samples(self):
         # The shared loop keeps its state at each publish instant, also while it catches up
-        # a clock jump in one call: publish those, each with its own stamp.
-        for sample in self.row.samples_since(self._last_sequence):
+        # a clock jump in one call: publish those, each with its own stamp; of more than
+        # MAX_STATES_PER_TICK (a loop racing to catch up), the newest, counting the rest.
+        samples = self.row.samples_since(self._last_sequence, MAX_STATES_PER_TICK)
+        if samples:
+            self._states_skipped += samples[0].sequence - self._last_sequence - 1
+        for sample in samples:
             self._last_sequence = sample.sequence
             if self._decimator.due(sample.time_s):
                 self._publish_state(sample)
@@ -234,7 +242,8 @@ class PanelNode(Node):
             contract.DIAGNOSTIC_SETPOINTS_REJECTED: guard.rejected,
             'last_rejection': guard.last_rejection,
             contract.DIAGNOSTIC_FREE_AIR_NL: row.free_air_used_nl,
-            'sim_time_skipped_s': self._skipped_s,
+            'sim_time_skipped_s': self.row.skipped_s,
+            contract.DIAGNOSTIC_STATES_SKIPPED: self._states_skipped,
             'loop_time_s': row.time_s if row.time_s is not None else math.nan,
             contract.DIAGNOSTIC_BEHIND_S: row.behind_s,
         }
@@ -256,9 +265,11 @@ def build_loops(node, panel_ids, seed=0):
         time_constant_s=settings['control.time_constant_s'],
         integral_time_s=4.0 * settings['control.time_constant_s'],
         hold_band_pa=settings['control.hold_band_pa'])
-    return facade_loops(facade, panel_ids, settings['control_period_s'], parameters,
-                        seed=seed, quiet_period_s=settings['simulation.quiet_period_s'],
-                        max_call_s=MAX_CALL_S)
+    loops = facade_loops(facade, panel_ids, settings['control_period_s'], parameters,
+                         seed=seed, quiet_period_s=settings['simulation.quiet_period_s'],
+                         max_call_s=MAX_CALL_S)
+    compile_kernels()  # here, before the panels report ready, not in their first tick
+    return loops
 
 
 def start_panels(panel_ids, seed=0, **node_kwargs):

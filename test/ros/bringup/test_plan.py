@@ -36,7 +36,9 @@ def test_settings_scale_with_the_speedup(demonstrator):
     # Once per 10 clock ticks: 5 Hz of wall time, whatever the speed-up.
     assert fast.publish_rate_hz == pytest.approx(1 / 72.0) and slow.publish_rate_hz == 0.5
     assert fast.state_period_s == pytest.approx(72.0)
-    assert fast.setpoint_period_s == 2 * fast.clock_tick_s and slow.setpoint_period_s == 1.0
+    # The heartbeat: ten per watchdog time, at least every second of simulated time.
+    assert fast.setpoint_period_s == fast.setpoint_timeout_s / 10 == 60.0
+    assert slow.setpoint_period_s == 1.0
 
 
 def test_every_node_gets_its_parameters_as_plain_typed_values(demonstrator):
