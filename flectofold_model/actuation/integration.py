@@ -108,7 +108,8 @@ def _rates(pressure_pa, panel):
     (critical_ratio, temperature_scale, rt, dead_volume, relief_cracking, relief_span,
      relief_conductance) = circuit
     p = max(pressure_pa, _ATM)
-    fill = _mass_flow(supply_pa, p, fill_conductance, critical_ratio, temperature_scale)
+    fill = 0.0 if fill_conductance == 0.0 else _mass_flow(supply_pa, p, fill_conductance,
+                                                          critical_ratio, temperature_scale)
     per_conductance = _mass_flow(p, _ATM, 1.0, critical_ratio, temperature_scale)
     relief = min(max((p - _ATM - relief_cracking) / relief_span, 0.0), 1.0) * relief_conductance
     exhaust = vent_conductance + leak_conductance + relief
