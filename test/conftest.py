@@ -18,3 +18,16 @@ control: {{{control}}}
 def small_facade_text():
     """YAML of a 2 x 2 south-facing saddle facade with the given ``control`` mapping body."""
     return lambda control: SMALL_FACADE.format(control=control)
+
+
+@pytest.fixture(autouse=True, scope='session')
+def compiled_kernels(request):
+    """Compile the simulation's kernels once, before any test starts a panel process.
+
+    After a change to the model the first process that runs them compiles for tens of seconds
+    (``flectofold_model._compiled``); a panel node started by a test would spend its start-up
+    wait on that. Loading them from the cache takes under a second.
+    """
+    if any(item.get_closest_marker('graph') for item in request.session.items):
+        from flectofold_model.control import compile_kernels
+        compile_kernels()

@@ -32,7 +32,7 @@ from flectofold_model.control.pressure_loop import ControllerParameters, Pressur
 
 #: States a loop keeps for its rows: rows that take them at least this often lose none.
 SAMPLE_HISTORY = 4096
-#: Panel-periods one call of the compiled simulation runs at most (a few ms of work), so that a
+#: Panel-periods one call of the compiled simulation runs at most (10-20 ms of work), so that a
 #: loop with a deadline looks at the clock often enough.
 RUN_BUDGET = 16384
 
@@ -278,13 +278,12 @@ class PanelLoops:
                 plant.sensors.put_back(noise[made:])
             self._rested_setpoint = rested
             self.quiet_periods_run += quiet
-            start_s = self.time_s
             for r in range(made):
                 self.time_s += int(spans[r]) * self.period_s
                 if spans[r] > 1:
                     self._hold_samples(self.time_s, (closure[r], fold_angle[r]), measured[r])
                 self._sample(self.time_s, (closure[r + 1], fold_angle[r + 1]), measured[r + 1])
-            plant.account(self.time_s - start_s, accepted, rejected)
+            plant.account(done * self.period_s, accepted, rejected)
             self.measured_pa = measured[made].copy()
             self._feedback = (closure[made].copy(), fold_angle[made].copy())
             periods -= done
