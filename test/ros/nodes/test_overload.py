@@ -1,8 +1,9 @@
 """A panel process that cannot keep up with its clock keeps publishing, says so, and stops.
 
 The clock here leaps 400 s of simulated time every 50 ms of wall time (8,000x) and the loops
-run every period (no quiet spans): 36 panels then fall further behind with every call, which
-works at most 0.25 s. The process must go on publishing its panels' state and
+run every period (no quiet spans): the panels then fall further behind with every call, which
+works at most 0.25 s. The process hosts 18 panels, as each of the bringup's two panel
+processes does for the demonstrator. It must go on publishing its panels' state and
 diagnostics, report ``overloaded`` with a growing ``behind_by_s``, and stop within 2 s of a
 terminal's Ctrl-C (SIGINT to its process group).
 """
@@ -32,7 +33,7 @@ def overloaded():
     graph = Graph(domain_for(21))
     heard = {'joints': [], 'diagnostics': []}
     try:
-        process = graph.start('panel_group', '--group', '0/1', '--ros-args',
+        process = graph.start('panel_group', '--group', '0/2', '--ros-args',
                               '-p', 'use_sim_time:=true', '-p', 'setpoint_timeout_s:=86400.0',
                               '-p', 'simulation.quiet_period_s:=0.1', group=True)
         clock = publisher(graph.node, contract.CLOCK)
