@@ -11,7 +11,8 @@ setup(
     name=PACKAGE,
     version='0.1.0',
     packages=find_packages(exclude=['test', 'test.*', 'bench']),
-    package_data={'flectofold_model.facade': ['data/*.yaml']},
+    package_data={'flectofold_model.facade': ['data/*.yaml'],
+                  PACKAGE: ['fastdds_panel_process.xml']},
     data_files=[
         ('share/ament_index/resource_index/packages', ['resource/' + PACKAGE]),
         (os.path.join('share', PACKAGE), ['package.xml']),

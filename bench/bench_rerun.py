@@ -1,87 +1,115 @@
-"""Meshes per second into an .rrd: the bridge's scene against one call per panel and message.
+"""The Rerun scene's flush: CPU, flushes per second and .rrd growth, 36 and 1,000 panels.
 
-Both log the demonstrator's 36 panels for 100 states each (every panel moving, the worst
-case), with fold-angle, pressure and closure series, to an .rrd file in a temporary folder.
-The scene meshes every changed panel in one vectorised ``fold_mesh`` call per flush and sends
-the series in columns; the peer builds one panel's mesh per message and logs each sample.
+Run with ``.venv/bin/python bench/bench_rerun.py [--flushes 100]``. Each facade (the
+demonstrator's 36 panels, and 1,000 demonstrator modules on a 25 x 40 grid) is split into two
+panel processes, as the bringup runs it. Every flush gets one ``/facade/panel_states``
+message from each process (``sensor_msgs/PointCloud2`` built with
+:func:`flectofold_ros.panel_states.fill_message`, through :func:`feed` as the bridge gets it)
+with every panel moving and ``min_change_rad=0``, so every flush re-meshes every panel and logs
+the whole facade mesh, colours, the three per-panel series and the closure band: the worst
+case. The recording goes to an ``.rrd`` file in a temporary folder.
+
+Figures: CPU per flush is this process's CPU time (``time.process_time``, which counts the
+Rerun SDK's own threads: batching, compression, file writing) over the run, finishing the
+file included, divided by the flushes, so one core sustains ``1000 / CPU ms`` flushes per
+second; wall time is shown too (a busy machine stretches it). The .rrd growth is per flush
+and per second at 10 flushes/s.
 """
 
+import argparse
 from pathlib import Path
 import tempfile
 import time
 
+from builtin_interfaces.msg import Time
 import numpy as np
-import rerun as rr
+from sensor_msgs.msg import PointCloud2, PointField
 
 from flectofold_model.actuation import ATMOSPHERIC_PRESSURE_PA
-from flectofold_model.facade.description import DEFAULT_FACADE, load_facade
-from flectofold_model.kinematics.mesh import fold_mesh
-from flectofold_ros.rerun.scene import FacadeScene
+from flectofold_model.facade.description import build_facade, DEFAULT_FACADE, load_facade
+from flectofold_ros import contract, panel_states
+from flectofold_ros.rerun.scene import FacadeScene, feed
 from flectofold_ros.rerun.sinks import open_recording
 
-STEPS = 100
 T0_NS = 1782036000 * 10**9
+STATE_NS = 10**8  # 10 Hz of ROS time
+TARGET_FLUSHES_PER_S = 10.0
 
 
-def states(facade, model):
-    closure = 0.5 + 0.45 * np.sin(np.arange(STEPS)[:, None] / 4.0 + np.arange(len(facade)) / 5.0)
-    return closure, np.stack([model.fold_angle_from_closure(c) for c in closure])
+def large_facade(rows=25, columns=40):
+    """Return the demonstrator's modules on a ``rows`` x ``columns`` grid, 1.1 m pitch."""
+    text = Path(DEFAULT_FACADE).read_text()
+    for old, new in (('rows: 6', f'rows: {rows}'), ('columns: 6', f'columns: {columns}'),
+                     ('width_m: 6.6', f'width_m: {1.1 * columns:.1f}'),
+                     ('height_m: 6.6', f'height_m: {1.1 * rows:.1f}'),
+                     ('curvature_u_per_m: 0.08', 'curvature_u_per_m: 0.004'),
+                     ('curvature_v_per_m: -0.08', 'curvature_v_per_m: -0.004')):
+        assert old in text, old
+        text = text.replace(old, new)
+    return build_facade(text)
 
 
-def run_scene(facade, path):
+def messages(scene, step, processes=2):
+    """One panel_states message per process for state ``step``, every panel moving."""
+    count = len(scene)
+    closure = 0.5 + 0.45 * np.sin(step / 4.0 + np.arange(count) / 5.0)
+    table = panel_states.new_table(count)
+    table['x'], table['y'], table['z'] = scene.positions_enu.T
+    table['closure'] = closure
+    table['fold_angle_rad'] = scene.model.fold_angle_from_closure(closure)
+    table['pressure_pa'] = ATMOSPHERIC_PRESSURE_PA + 8e3 * closure
+    table['setpoint'] = closure
+    table['row'], table['column'] = panel_states.id_numbers(scene.panel_ids)
+    table['status'] = contract.STATUSES.index('tracking')
+    stamp_ns = T0_NS + step * STATE_NS
+    stamp = Time(sec=stamp_ns // 10**9, nanosec=stamp_ns % 10**9)
+    return [panel_states.fill_message(PointCloud2(), part, stamp, PointField)
+            for part in np.array_split(table, processes)]
+
+
+def run(facade, path, flushes):
     recording = open_recording('bench', None, path)
-    scene = FacadeScene(facade, recording)
+    scene = FacadeScene(facade, recording, min_change_rad=0.0)
     scene.log_static()
-    closure, angles = states(facade, scene.model)
-    started = time.perf_counter()
-    for step in range(STEPS):
-        stamp = T0_NS + step * 72 * 10**9
-        for i, panel_id in enumerate(facade.panel_ids):
-            scene.fold_angle(panel_id, stamp, float(angles[step, i]))
-            scene.closure_value(panel_id, stamp, float(closure[step, i]))
-            scene.pressure(panel_id, stamp, ATMOSPHERIC_PRESSURE_PA + 8e3 * closure[step, i])
+    recording.flush()
+    inputs = [messages(scene, step) for step in range(flushes)]  # built outside the timing
+    static_bytes = path.stat().st_size
+    wall, cpu, feed_s = time.perf_counter(), time.process_time(), 0.0
+    for step_messages in inputs:
+        started = time.process_time()
+        for message in step_messages:
+            feed(scene, contract.PANEL_STATES.name, message)
+        feed_s += time.process_time() - started
         scene.flush()
     recording.flush()
     recording.disconnect()
-    return time.perf_counter() - started, scene.counts.meshes_logged
-
-
-def run_per_message(facade, path):
-    recording = open_recording('bench', None, path)
-    scene = FacadeScene(facade, rr.RecordingStream('unused'))  # for its model only
-    model, batch = scene.model, scene.model.batch
-    closure, angles = states(facade, model)
-    started = time.perf_counter()
-    for step in range(STEPS):
-        recording.set_time('ros_time', timestamp=np.datetime64(T0_NS + step * 72 * 10**9, 'ns'))
-        for i, panel_id in enumerate(facade.panel_ids):
-            k = model.state_from_closure(closure[step]).elastica_k[i:i + 1]
-            mesh = fold_mesh(batch.take([i]), k, dtype=np.float32)
-            recording.log(f'/facade/panels/{panel_id}/mesh', rr.Mesh3D(
-                vertex_positions=mesh.vertices[0], vertex_normals=mesh.normals[0],
-                triangle_indices=mesh.faces))
-            for name, value in (('fold_angle_rad', angles[step, i]),
-                                ('closure', closure[step, i]),
-                                ('pressure_gauge_pa', 8e3 * closure[step, i])):
-                recording.log(f'/metrics/{name}/{panel_id}', rr.Scalars(value))
-    recording.flush()
-    recording.disconnect()
-    return time.perf_counter() - started, STEPS * len(facade)
+    cpu, wall = time.process_time() - cpu, time.perf_counter() - wall
+    assert scene.counts.rejected == 0 and scene.counts.meshes_logged == flushes
+    grown = path.stat().st_size - static_bytes
+    return {'cpu_ms': 1e3 * cpu / flushes, 'wall_ms': 1e3 * wall / flushes,
+            'feed_ms': 1e3 * feed_s / flushes, 'mb_per_flush': grown / flushes / 1e6,
+            'vertices': len(scene) * scene.topology.vertex_count,
+            'stations': scene.topology.stations}
 
 
 def main():
-    facade = load_facade(DEFAULT_FACADE)
-    print(f'{len(facade)} panels x {STEPS} states, every panel moving; .rrd file sink')
+    parser = argparse.ArgumentParser(description=__doc__.split('\n')[0])
+    parser.add_argument('--flushes', type=int, default=100)
+    flushes = parser.parse_args().flushes
+    print(f'FacadeScene: {flushes} flushes, every panel moving (min_change_rad 0), two '
+          f'panel_states messages per flush; .rrd file sink')
+    print(f'{"panels":>7} {"stations":>8} {"vertices":>9} {"CPU ms/flush":>13} '
+          f'{"(feed)":>7} {"flushes/s/core":>15} {"wall ms":>8} {"MB/flush":>9} '
+          f'{"MB/s @10 Hz":>12}')
     with tempfile.TemporaryDirectory() as folder:
-        results = {}
-        for name, run in (('scene (bridge)', run_scene), ('per message', run_per_message)):
-            path = Path(folder) / f'{name.split()[0]}.rrd'
-            seconds, meshes = run(facade, path)
-            results[name] = meshes / seconds
-            print(f'  {name:15s} {meshes} meshes in {seconds:5.2f} s: {meshes / seconds:7.0f} '
-                  f'meshes/s, .rrd {path.stat().st_size / 1e6:5.1f} MB')
-        ratio = results['scene (bridge)'] / results['per message']
-        print(f'  scene / per message: {ratio:.1f}x')
+        for name, facade in (('36', load_facade(DEFAULT_FACADE)), ('1000', large_facade())):
+            r = run(facade, Path(folder) / f'{name}.rrd', flushes)
+            rate = 1e3 / r['cpu_ms']
+            print(f'{len(facade):>7} {r["stations"]:>8} {r["vertices"]:>9} '
+                  f'{r["cpu_ms"]:>13.1f} {r["feed_ms"]:>7.2f} {rate:>15.0f} '
+                  f'{r["wall_ms"]:>8.1f} {r["mb_per_flush"]:>9.3f} '
+                  f'{TARGET_FLUSHES_PER_S * r["mb_per_flush"]:>12.2f}'
+                  f'{"" if rate >= TARGET_FLUSHES_PER_S else "  BELOW TARGET"}')
 
 
 if __name__ == '__main__':

@@ -98,6 +98,17 @@ OVERRIDE = Topic(f'{FACADE_NAMESPACE}/override', 'sensor_msgs/msg/JointState')
 OVERRIDE_CLEAR = Topic(f'{FACADE_NAMESPACE}/override_clear', 'std_msgs/msg/String')
 #: ``override`` and ``override_clear`` name this instead of a panel id for every panel.
 ALL_PANELS = '*'
+#: The facade-level state: reliable, volatile, keep last 100, so that a busy observer (a
+#: recorder writing, a bridge meshing) may trail by 10 s at 10 Hz before a state is lost.
+FACADE_STREAM = Qos(depth=100)
+#: Every flap of one panel process's panels, one message per state (``facade_state.md``).
+FACADE_JOINT_STATES = Topic(f'{FACADE_NAMESPACE}/joint_states', 'sensor_msgs/msg/JointState',
+                            FACADE_STREAM)
+#: Every panel of one panel process, one point each (:mod:`flectofold_ros.panel_states`).
+PANEL_STATES = Topic(f'{FACADE_NAMESPACE}/panel_states', 'sensor_msgs/msg/PointCloud2',
+                     FACADE_STREAM)
+#: The facade-level state topics: what observers subscribe to.
+FACADE_STATE = (FACADE_JOINT_STATES, PANEL_STATES)
 
 # -- each panel's topics and service ----------------------------------------------------------
 
@@ -151,8 +162,11 @@ REPLAY_NODE = 'replay'
 #: Namespace of the facade-wide nodes (coordinator, monitor, bridge).
 FACADE_NODE_NAMESPACE = FACADE_NAMESPACE
 
-#: What the recorder records unless told otherwise.
-RECORDED_BY_DEFAULT = (f'{FACADE_NAMESPACE}/**', DIAGNOSTICS.name, CLOCK.name)
+#: What the recorder records unless told otherwise: the facade-level state, the facade's inputs,
+#: ``/diagnostics`` and ``/clock``; not the per-panel topics (``/facade/**`` adds them).
+RECORDED_BY_DEFAULT = (FACADE_JOINT_STATES.name, PANEL_STATES.name, SUN.name, WIND_SPEED.name,
+                       DNI.name, OVERRIDE.name, OVERRIDE_CLEAR.name, DIAGNOSTICS.name,
+                       CLOCK.name)
 
 # -- diagnostics ------------------------------------------------------------------------------
 
@@ -164,3 +178,7 @@ DIAGNOSTIC_BEHIND_S = 'behind_by_s'
 #: ``/diagnostics`` key of a panel's status: states its loop kept but it did not publish,
 #: because more came in one tick than it publishes (a loop catching up).
 DIAGNOSTIC_STATES_SKIPPED = 'states_skipped'
+#: ``/diagnostics`` keys of a panel process's status: the median and 99th percentile of how far
+#: its tick's interval strayed from the control period, over the last report [s].
+DIAGNOSTIC_TICK_JITTER_P50_S = 'tick_jitter_p50_s'
+DIAGNOSTIC_TICK_JITTER_P99_S = 'tick_jitter_p99_s'

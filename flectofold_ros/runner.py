@@ -110,6 +110,12 @@ class Program:
     (end by themselves) and :meth:`close` (flush files, print a summary, choose the exit code).
     """
 
+    #: Destroy the nodes and shut ROS down after :meth:`close`. A program that ends its
+    #: process at once after (``executables.FAST_EXIT``) may skip it: with thousands of
+    #: endpoints, destroying them one by one takes minutes (Fast DDS looks through every
+    #: endpoint for each one it deletes), and the process's end frees them all.
+    teardown = True
+
     def __init__(self, nodes=()):
         self.nodes = list(nodes)
 
@@ -165,13 +171,15 @@ def run_nodes(name, args, start, usage=None, parameters=None, bad_input=(), inte
             interrupted = stop.requested
         finally:
             stop.closing()
+            teardown = program is None or program.teardown
             try:
                 if program is not None:
                     code = program.close(interrupted)
-                    for node in program.nodes:
+                    for node in program.nodes if teardown else ():
                         node.destroy_node()
             finally:
-                rclpy.try_shutdown()
+                if teardown:
+                    rclpy.try_shutdown()
         if code is not None:
             return code
         return interrupted_code if interrupted else 0

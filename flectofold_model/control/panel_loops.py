@@ -60,6 +60,9 @@ class LoopSample:
     closure: np.ndarray
     fold_angle_rad: np.ndarray
     measured_pa: np.ndarray
+    active: np.ndarray
+    """Whether the loop was moving each panel (a valve open or its pressure reference still
+    ramping to the target) in the period the state ends; False while it rests."""
 
 
 @dataclass(frozen=True)
@@ -154,6 +157,7 @@ class PanelLoops:
         the compiled engine) rather than one period per Python call."""
         self._runs_per_call = max(8, min(512, RUN_BUDGET // len(model)))
         self._work = None
+        self._resting_flags = np.zeros(len(model), dtype=bool)
 
     def __len__(self):
         return self._setpoint.shape[0]
@@ -257,8 +261,8 @@ class PanelLoops:
             size = self._runs_per_call
             self._work = (run_periods, np.zeros(size, dtype=np.int64),
                           *(np.empty((size + 1, count)) for _ in range(3)),
-                          np.full(count, np.nan))
-        run_periods, spans, measured, closure, fold_angle, rested = self._work
+                          np.full(count, np.nan), np.zeros((size + 1, count), dtype=np.bool_))
+        run_periods, spans, measured, closure, fold_angle, rested, active = self._work
         # nothing has rested yet: NaN equals no setpoint, so the first run cannot be quiet
         rested[:] = np.nan if self._rested_setpoint is None else self._rested_setpoint
         fill, vent = self.driver.valve_openings(copy=False)
@@ -273,7 +277,7 @@ class PanelLoops:
                 periods, runs, self.period_s, self.quiet_periods, self._setpoint, rested,
                 noise, controller.state, controller.codes, controller.kernel_parameters,
                 controller.kernel_circuit, controller.kernel_tables, arrays, constants, sensors,
-                fill, vent, spans, measured, closure, fold_angle)
+                fill, vent, spans, measured, closure, fold_angle, active)
             if made < runs:
                 plant.sensors.put_back(noise[made:])
             self._rested_setpoint = rested
@@ -282,7 +286,8 @@ class PanelLoops:
                 self.time_s += int(spans[r]) * self.period_s
                 if spans[r] > 1:
                     self._hold_samples(self.time_s, (closure[r], fold_angle[r]), measured[r])
-                self._sample(self.time_s, (closure[r + 1], fold_angle[r + 1]), measured[r + 1])
+                self._sample(self.time_s, (closure[r + 1], fold_angle[r + 1]), measured[r + 1],
+                             active[r + 1])
             plant.account(done * self.period_s, accepted, rejected)
             self.measured_pa = measured[made].copy()
             self._feedback = (closure[made].copy(), fold_angle[made].copy())
@@ -308,18 +313,20 @@ class PanelLoops:
         if self._sampler is None or shortest != self._sampler.period_s:
             self._sampler = PublishDecimator(shortest, slack_s=0.5 * self.period_s)
 
-    def _sample(self, clock_s, feedback=None, measured_pa=None):
+    def _sample(self, clock_s, feedback=None, measured_pa=None, active=None):
         """Keep the feedback when the sampler says so, at the loop clock's own time.
 
         A loop that catches up a long clock jump in one call thereby still leaves its states
-        at their own times, for nodes to publish with the right stamps. ``feedback`` and
-        ``measured_pa`` are the state at ``clock_s``; the last period's when not given.
+        at their own times, for nodes to publish with the right stamps. ``feedback``,
+        ``measured_pa`` and ``active`` are the state at ``clock_s``; the last period's when
+        not given.
         """
         if self._sampler is None or not self._sampler.due(clock_s):
             return
         if feedback is None:
             feedback, measured_pa = self._current_feedback(), self.measured_pa
-        self._keep(clock_s, feedback, measured_pa)
+            active = self.controller.active
+        self._keep(clock_s, feedback, measured_pa, active)
 
     def _hold_samples(self, end_s, feedback, measured_pa):
         """Keep the states due inside a quiet span that ended at ``end_s``, as last measured.
@@ -333,13 +340,13 @@ class PanelLoops:
                 sampler.next_due_s < end_s - sampler.slack_s:
             due_s = sampler.next_due_s
             sampler.due(due_s)
-            self._keep(due_s, feedback, measured_pa)
+            self._keep(due_s, feedback, measured_pa, self._resting_flags)
 
-    def _keep(self, time_s, feedback, measured_pa):
+    def _keep(self, time_s, feedback, measured_pa, active):
         self._sequence += 1
         closure, fold_angle = feedback
         self.samples.append(LoopSample(self._sequence, time_s, closure.copy(), fold_angle.copy(),
-                                       measured_pa.copy()))
+                                       measured_pa.copy(), active.copy()))
 
     def samples_since(self, sequence, limit=None):
         """Return the kept :class:`LoopSample` objects after ``sequence``, oldest first.

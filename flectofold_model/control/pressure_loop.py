@@ -203,6 +203,13 @@ class PressureController:
         return self._row('TARGET_LIMIT')
 
     @property
+    def active(self):
+        """Whether each loop moves its panel (N,): a valve open, or the reference ramping."""
+        k, state = self._kernel, self.state
+        return (state[k.LAST_FILL] != 0.0) | (state[k.LAST_VENT] != 0.0) | \
+            (state[k.REFERENCE] != state[k.TARGET])
+
+    @property
     def limited_by_supply(self):
         """Whether a weak supply holds the target below what the setpoint needs (N,)."""
         return self.state[self._kernel.LIMITED] != 0.0
@@ -211,6 +218,13 @@ class PressureController:
     def fault(self):
         """Latched :class:`Fault` of each panel (N,), an object array."""
         return np.array([_FAULTS[code] for code in self.codes[self._kernel.FAULT]], dtype=object)
+
+    @property
+    def fault_codes(self):
+        """Latched fault of each panel (N,) as its index in :class:`Fault`, read-only."""
+        view = self.codes[self._kernel.FAULT]
+        view.flags.writeable = False
+        return view
 
     def fault_at(self, index):
         """Latched :class:`Fault` of panel ``index``."""

@@ -16,7 +16,7 @@ for the loop to keep the states its nodes publish.
 
 import numpy as np
 
-from flectofold_model._compiled import kernel
+from flectofold_model._compiled import inline_kernel, kernel
 from flectofold_model.actuation.integration import _advance_panel
 from flectofold_model.control.loop_kernel import (control_panel, feedback_all, LAST_FILL,
                                                   LAST_VENT, REFERENCE, TARGET)
@@ -32,6 +32,13 @@ def _resting(setpoint, rested_setpoint, state, hold_band_pa):
                 state[LAST_VENT, i] != 0.0 or state[REFERENCE, i] != state[TARGET, i]:
             return False
     return True
+
+
+@inline_kernel
+def _active(state, i):
+    """Whether the loop moves panel ``i``: a valve open or its reference still ramping."""
+    return state[LAST_FILL, i] != 0.0 or state[LAST_VENT, i] != 0.0 or \
+        state[REFERENCE, i] != state[TARGET, i]
 
 
 @kernel
@@ -54,7 +61,7 @@ def _read_sensors(run, noise, plant, sensors, measured, supply_reading):
 @kernel
 def run_periods(periods, max_runs, period_s, quiet_periods, setpoint, rested_setpoint, noise,
                 state, codes, parameters, circuit, tables, plant, engine, sensors, fill, vent,
-                spans, measured, closure, fold_angle_rad):
+                spans, measured, closure, fold_angle_rad, active):
     """Run up to ``periods`` control periods in at most ``max_runs`` runs.
 
     ``plant`` is the engine's arrays (pressure, free air, vented, lagged pressure, step length,
@@ -103,6 +110,8 @@ def run_periods(periods, max_runs, period_s, quiet_periods, setpoint, rested_set
             accepted += a
             rejected += r
         feedback_all(state, tables, closure[runs + 1], fold_angle_rad[runs + 1])
+        for i in range(count):
+            active[runs + 1, i] = _active(state, i)
         spans[runs] = span
         done += span
         runs += 1

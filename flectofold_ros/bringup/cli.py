@@ -132,6 +132,8 @@ class Bringup(Program):
         super().__init__()
         self.facade, self.plan = facade, plan
         self.children, self.observers = [], []
+        self.panels = None
+        """The panel program when the panels run in this process."""
         self.outputs = (run_directory(options.out, plan)
                         if options.record or options.rerun else None)
         self.started = self.day_started = time.monotonic()
@@ -164,8 +166,9 @@ class Bringup(Program):
             parameter_overrides=parameters(plan.coordinator_parameters()))
         self.nodes.append(self.coordinator)
         if not plan.panel_processes:
-            self.nodes += start_panels(self.facade.panel_ids,
+            self.panels = start_panels(self.facade.panel_ids, 'panel_group_0',
                                        parameter_overrides=parameters(plan.panel_parameters()))
+            self.nodes += self.panels.nodes
         self.sun = SunPositionNode(parameter_overrides=parameters(plan.sun_parameters()))
         self.sun.hold()
         self.monitor = Monitor(self.facade)
@@ -256,6 +259,8 @@ class Bringup(Program):
     def close(self, interrupted):
         wall_s = (self.day_ended or time.monotonic()) - self.day_started
         self._stop_children()
+        if self.panels is not None:
+            self.panels.close(interrupted)
         print('\n'.join(self.summary_lines(wall_s, interrupted,
                                            time.monotonic() - self.started)), flush=True)
         if self.outputs is not None:
@@ -297,7 +302,7 @@ class Bringup(Program):
             air = monitor.counter_total(contract.DIAGNOSTIC_FREE_AIR_NL)
             rejected = monitor.counter_total(contract.DIAGNOSTIC_SETPOINTS_REJECTED)
             timeouts = sum(status == contract.STATUS_TIMED_OUT
-                           for status in monitor.values('status'))
+                           for status in monitor.statuses())
             lines += [f'  panels: air drawn {air:.0f} NL ({air / len(facade):.1f} NL per '
                       f'panel), final |closure - setpoint| max {monitor.tracking_error():.3f}',
                       f'  faults: {", ".join(monitor.faults()) or "none"}; setpoints rejected '

@@ -1,36 +1,21 @@
 """What the bringup knows of its facade's day, learnt from the topics as any other node would.
 
-The monitor subscribes to ``/clock``, to every panel's ``joint_states`` (its stamp is the loop
-time of the state), ``closure``, ``fault``, ``status`` and ``setpoint`` (what the coordinator
-commands), and to ``/diagnostics`` for the panels' cumulative counters (air drawn, setpoints
-refused). It never looks inside another node. The bringup asks it whether the graph is ready,
-how far the slowest panel loop trails the clock, and for the progress line and summary.
+The monitor subscribes to ``/clock``, to ``/facade/panel_states`` (every panel of each panel
+process in one message: its stamp is the loop time of the state; closure, tracked setpoint,
+fault and status) and to ``/diagnostics`` for the panels' cumulative counters (air drawn,
+setpoints refused). Three subscriptions, whatever the number of panels; it never looks inside
+another node. The bringup asks it whether the graph is ready, how far the slowest panel loop
+trails the clock, and for the progress line and summary.
 """
 
-from dataclasses import dataclass, field
 import math
 
+import numpy as np
 from rclpy.node import Node
 
-from flectofold_ros import contract
-from flectofold_ros.bringup.plan import local_time, observed_topics
+from flectofold_ros import contract, panel_states
+from flectofold_ros.bringup.plan import local_time
 from flectofold_ros.interfaces import subscription
-
-
-@dataclass
-class PanelView:
-    """The last of each thing a panel said, as the monitor heard it."""
-
-    state_stamp_s: float = None
-    """Loop time of the newest state (``joint_states`` stamp) [s]."""
-    closure: float = None
-    setpoint: float = None
-    fault: str = contract.NO_FAULT
-    status: str = ''
-    counters: dict = field(default_factory=dict)
-    """Cumulative figures from the panel's ``/diagnostics`` status, by contract key."""
-    behind_s: float = 0.0
-    """Largest lag behind the clock the panel's simulation reported [s]."""
 
 
 class Monitor(Node):
@@ -43,63 +28,69 @@ class Monitor(Node):
                          **kwargs)
         self.facade = facade
         self.clock_s = None
-        self.panels = {panel_id: PanelView() for panel_id in facade.panel_ids}
-        self._listening = {topic.of(panel_id).name for panel_id in facade.panel_ids
-                           for topic in (contract.JOINT_STATES, contract.CLOSURE)}
+        count = len(facade)
+        self._lookup = {panel_id: i for i, panel_id in enumerate(facade.panel_ids)}
+        self._index = panel_states.index_lookup(facade.panel_ids)
+        self.state_stamp_s = np.full(count, np.nan)
+        """Loop time of each panel's newest state [s]; NaN until heard."""
+        self.closure = np.full(count, np.nan)
+        self.setpoint = np.full(count, np.nan)
+        """The closure each panel tracks, as it reports it."""
+        self.fault = np.zeros(count, dtype=np.uint8)
+        self.status = np.zeros(count, dtype=np.uint8)
+        self.counters = {key: np.full(count, np.nan) for key in self.COUNTERS}
+        self.behind_s = np.zeros(count)
+        """Largest lag behind the clock each panel's simulation reported [s]."""
+        self.foreign = 0
+        """``panel_states`` messages or points that are not of this facade, ignored."""
         subscription(self, contract.CLOCK, self._on_clock)
         subscription(self, contract.DIAGNOSTICS, self._on_diagnostics, contract.OBSERVER)
-        for panel_id, view in self.panels.items():
-            subscription(self, contract.JOINT_STATES.of(panel_id), self._on_state(view),
-                         contract.OBSERVER)
-            for topic, key in ((contract.CLOSURE, 'closure'), (contract.SETPOINT, 'setpoint'),
-                               (contract.FAULT, 'fault'), (contract.STATUS, 'status')):
-                subscription(self, topic.of(panel_id), self._setter(view, key))
+        subscription(self, contract.PANEL_STATES, self._on_panel_states, contract.OBSERVER)
 
     # -- inputs -----------------------------------------------------------------------------
 
     def _on_clock(self, message):
         self.clock_s = message.clock.sec + message.clock.nanosec * 1e-9
 
-    @staticmethod
-    def _on_state(view):
-        def on_state(message):
-            stamp = message.header.stamp
-            view.state_stamp_s = stamp.sec + stamp.nanosec * 1e-9
-        return on_state
-
-    @staticmethod
-    def _setter(view, key):
-        def on_message(message):
-            setattr(view, key, message.data)
-        return on_message
+    def _on_panel_states(self, message):
+        try:
+            table = panel_states.unpack(message)
+        except ValueError:
+            self.foreign += 1
+            return
+        index = panel_states.indices(table, self._index)
+        known = index >= 0
+        self.foreign += int(np.count_nonzero(~known))
+        index, table = index[known], table[known]
+        self.state_stamp_s[index] = panel_states.stamp_ns(message.header) * 1e-9
+        self.closure[index], self.setpoint[index] = table['closure'], table['setpoint']
+        self.fault[index], self.status[index] = table['fault'], table['status']
 
     def _on_diagnostics(self, message):
         for status in message.status:
-            view = self.panels.get(status.hardware_id)
-            if view is None:
+            i = self._lookup.get(status.hardware_id)
+            if i is None:
                 continue
             for item in status.values:
                 if item.key in self.COUNTERS:
-                    view.counters[item.key] = _number(item.value)
+                    self.counters[item.key][i] = _number(item.value)
                 elif item.key == contract.DIAGNOSTIC_BEHIND_S:
-                    view.behind_s = max(view.behind_s, _number(item.value))
+                    self.behind_s[i] = max(self.behind_s[i], _number(item.value))
 
     # -- questions --------------------------------------------------------------------------
 
     def ready(self, observers):
-        """Every panel publishes its state; the coordinator and ``observers`` more listen.
+        """Every panel heard; the coordinator and ``observers`` more listen.
 
         Until then the bringup holds the clock at the start of the day, so nothing misses it.
         """
-        if self.count_subscribers(contract.SUN.name) < 1 + observers:
-            return False
-        return all(self.count_publishers(topic) >= 1 and
-                   self.count_subscribers(topic) >= observers + (topic in self._listening)
-                   for topic in observed_topics(self.facade))
+        return (self.count_subscribers(contract.SUN.name) >= 1 + observers and
+                self.count_subscribers(contract.PANEL_STATES.name) >= 1 + observers and
+                self.reporting() == len(self.facade))
 
     def reporting(self):
         """Panels heard from (a state, at least once)."""
-        return sum(view.state_stamp_s is not None for view in self.panels.values())
+        return int(np.count_nonzero(np.isfinite(self.state_stamp_s)))
 
     def lag_s(self, start_s):
         """How far the slowest panel's newest state trails the clock [s], or NaN.
@@ -109,57 +100,56 @@ class Monitor(Node):
         """
         if self.clock_s is None:
             return math.nan
-        return self.clock_s - min(start_s if view.state_stamp_s is None else view.state_stamp_s
-                                  for view in self.panels.values())
+        stamps = np.where(np.isfinite(self.state_stamp_s), self.state_stamp_s, start_s)
+        return self.clock_s - float(stamps.min())
 
     def caught_up(self, end_s, state_period_s):
         """Whether every panel published a state of the day's last ``state_period_s``."""
-        stamps = [view.state_stamp_s for view in self.panels.values()]
-        return all(stamp is not None and stamp >= end_s - state_period_s - 1.0
-                   for stamp in stamps)
+        return bool(np.all(self.state_stamp_s >= end_s - state_period_s - 1.0))
 
     def faults(self):
         """Return the faults the panels report, sorted."""
-        return sorted({view.fault for view in self.panels.values()} - {contract.NO_FAULT})
+        return sorted({contract.FAULTS[code] if code < len(contract.FAULTS) else 'unknown'
+                       for code in self.fault.tolist()} - {contract.NO_FAULT})
 
-    def values(self, key):
-        """Return the panels' last ``key`` (a :class:`PanelView` attribute), where heard."""
-        return [getattr(view, key) for view in self.panels.values()
-                if getattr(view, key) is not None]
+    def statuses(self):
+        """Return the status word of every panel heard."""
+        heard = np.isfinite(self.state_stamp_s)
+        return [contract.STATUSES[code] if code < len(contract.STATUSES) else 'unknown'
+                for code in self.status[heard].tolist()]
 
     def counter_total(self, key):
         """Sum of a cumulative counter over the panels that reported it."""
-        return sum(view.counters[key] for view in self.panels.values() if key in view.counters)
+        values = self.counters[key]
+        return float(values[np.isfinite(values)].sum())
 
     def largest_behind_s(self):
         """Largest lag behind the clock any panel's simulation reported [s]."""
-        return max(view.behind_s for view in self.panels.values())
+        return float(self.behind_s.max())
 
     def tracking_error(self):
-        """Largest ``|closure - setpoint|`` over the panels that reported both, or NaN."""
-        errors = [abs(view.closure - view.setpoint) for view in self.panels.values()
-                  if view.closure is not None and view.setpoint is not None]
-        return max(errors) if errors else math.nan
+        """Largest ``|closure - tracked setpoint|`` over the panels heard, or NaN."""
+        error = np.abs(self.closure - self.setpoint)
+        error = error[np.isfinite(error)]
+        return float(error.max()) if len(error) else math.nan
 
     # -- text -------------------------------------------------------------------------------
 
     def starting_line(self, observers):
-        up = sum(self.count_publishers(contract.CLOSURE.of(p).name) >= 1
-                 for p in self.facade.panel_ids)
-        heard = min(self.count_subscribers(contract.CLOSURE.of(p).name)
-                    for p in self.facade.panel_ids) - 1
-        return (f'starting: panels up {up}/{len(self.facade)}, observers subscribed '
-                f'{max(heard, 0)}/{observers}, sun listeners '
+        listeners = self.count_subscribers(contract.PANEL_STATES.name) - 1
+        return (f'starting: panels ready {self.reporting()}/{len(self.facade)} (in '
+                f'{self.count_publishers(contract.PANEL_STATES.name)} processes), observers '
+                f'subscribed {max(listeners, 0)}/{observers}, sun listeners '
                 f'{self.count_subscribers(contract.SUN.name)}/{1 + observers}')
 
     def progress_line(self, start_s):
         local = local_time(self.clock_s, self.facade.utc_offset_h) if self.clock_s else '-'
-        closures, commanded = self.values('closure'), self.values('setpoint')
-        closure = f'{sum(closures) / len(closures):.2f}' if closures else '-'
-        wanted = f'{sum(commanded) / len(commanded):.2f}' if commanded else '-'
-        faulted = sum(view.fault != contract.NO_FAULT for view in self.panels.values())
+        heard = np.isfinite(self.state_stamp_s)
+        closure = f'{self.closure[heard].mean():.2f}' if heard.any() else '-'
+        wanted = f'{self.setpoint[heard].mean():.2f}' if heard.any() else '-'
+        faulted = int(np.count_nonzero(self.fault))
         return (f'sim {local} | panels reporting {self.reporting()}/{len(self.facade)} | '
-                f'closure {closure} (commanded {wanted}) | faults {faulted} | loop lag '
+                f'closure {closure} (tracking {wanted}) | faults {faulted} | loop lag '
                 f'{self.lag_s(start_s):.0f} s sim')
 
 

@@ -12,7 +12,6 @@ import math
 import numbers
 import sys
 
-from flectofold_ros import contract
 
 #: Rate of the simulated /clock [Hz of wall time].
 CLOCK_RATE_HZ = 50.0
@@ -204,9 +203,3 @@ def local_time(epoch_s, utc_offset_h):
     """``YYYY-MM-DD HH:MM`` of a POSIX time at a UTC offset [h]."""
     zone = datetime.timezone(datetime.timedelta(hours=utc_offset_h))
     return datetime.datetime.fromtimestamp(epoch_s, zone).strftime('%Y-%m-%d %H:%M')
-
-
-def observed_topics(facade):
-    """Every panel's state topic names, which the bringup waits for before the clock starts."""
-    return [topic.of(panel_id).name for panel_id in facade.panel_ids
-            for topic in contract.PANEL_STATE]

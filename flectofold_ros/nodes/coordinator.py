@@ -19,7 +19,7 @@ from flectofold_model.facade import DEFAULT_FACADE, load_facade
 from flectofold_model.scheduling import FacadeSchedule
 from flectofold_model.scheduling.facade_schedule import representative_panel
 from flectofold_model.shading import ShadingTable
-from flectofold_ros import contract, diagnostics
+from flectofold_ros import contract, diagnostics, panel_states
 from flectofold_ros.interfaces import publisher, subscription
 from flectofold_ros.parameters import declare_all, double, string
 from flectofold_ros.runner import Program, run_nodes
@@ -68,9 +68,8 @@ class CoordinatorNode(Node):
         self._faulted = dict.fromkeys(self.facade.panel_ids, False)
         self._setpoints = [publisher(self, contract.SETPOINT.of(panel_id))
                            for panel_id in self.facade.panel_ids]
-        for panel_id in self.facade.panel_ids:
-            subscription(self, contract.FAULT.of(panel_id),
-                         lambda m, p=panel_id: self._on_fault(p, m))
+        self._index = panel_states.index_lookup(self.facade.panel_ids)
+        subscription(self, contract.PANEL_STATES, self._on_panel_states, contract.OBSERVER)
         subscription(self, contract.SUN, self._on_sun)
         subscription(self, contract.WIND_SPEED, self._on_wind)
         subscription(self, contract.DNI, self._on_dni)
@@ -119,8 +118,16 @@ class CoordinatorNode(Node):
     def _on_dni(self, message):
         self._dni = self._on_reading('dni', message, 0.0, 1500.0) or self._dni
 
-    def _on_fault(self, panel_id, message):
-        self._faulted[panel_id] = message.data != contract.NO_FAULT
+    def _on_panel_states(self, message):
+        try:
+            table = panel_states.unpack(message)
+        except ValueError as error:
+            self._reject('panel_states', str(error))
+            return
+        index = panel_states.indices(table, self._index)
+        known = index >= 0
+        for panel_index, fault in zip(index[known].tolist(), table['fault'][known].tolist()):
+            self._faulted[self.facade.panel_ids[panel_index]] = fault != 0
 
     def _selection(self, name):
         if name == contract.ALL_PANELS:

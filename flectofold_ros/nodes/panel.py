@@ -1,26 +1,38 @@
-"""One Flectofold panel on the graph: closure setpoint in; pressure, fold angles, state out.
+"""Flectofold panels on the graph: closure setpoints in; pressure, fold angles, state out.
 
-The node is the panel's ROS face. Its pressure loop and the fold model live in
-:class:`flectofold_model.control.PanelLoops`, which every panel node of a process shares
-(``panel_group``, ``facade``) so that the numerics run vectorised; each node works through
-its own :class:`~flectofold_model.control.LoopRow`. Topics, parameters and QoS:
-``msg_docs/panel_node.md``.
+A panel process (``panel_node``: one panel; ``panel_group``: many) runs every panel's pressure
+loop in one :class:`flectofold_model.control.PanelLoops`, so the numerics run vectorised, and
+drives the ROS side from one timer (:class:`PanelProcess`): each tick it runs the loops up to
+the clock, then publishes. Each panel keeps its own node (:class:`PanelNode`) with its topics
+and service; what costs with the panel count is done once per process: the timer, the clock,
+``/diagnostics`` (one array of every panel's status), the facade-level state topics
+(``/facade/joint_states``, ``/facade/panel_states``) and the parameters (on the process's
+settings node). A panel's own state topics go out at the full rate while its loop moves it,
+and at a heartbeat at rest. Topics, parameters, QoS and when each is published:
+``msg_docs/panel_node.md`` and ``msg_docs/facade_state.md``.
 """
 
+import array
 import math
+import os
+from pathlib import Path
 import sys
+import time
 
+import numpy as np
 from rclpy.clock import Clock, ClockType
 from rclpy.node import Node
+from rclpy.parameter import Parameter
 from rclpy.time import Time
-from sensor_msgs.msg import FluidPressure, JointState
+from sensor_msgs.msg import FluidPressure, JointState, PointCloud2, PointField
 from std_msgs.msg import Float64, String
 
 from flectofold_model.control import (compile_kernels, ControllerParameters, facade_loops, Fault,
                                       PublishDecimator, SafeAction, SafeBehaviour, SetpointGuard,
                                       SetpointState)
+from flectofold_model.control.panel_loops import panel_indices
 from flectofold_model.facade import DEFAULT_FACADE, load_facade
-from flectofold_ros import contract, diagnostics
+from flectofold_ros import contract, diagnostics, panel_states
 from flectofold_ros.interfaces import publisher, service, subscription
 from flectofold_ros.parameters import choice, declare_all, double, string
 from flectofold_ros.runner import Program, run_nodes
@@ -43,6 +55,9 @@ PARAMETERS = {
     'max_gauge_pressure_pa': double(12e3, 'Hard cushion pressure limit [Pa gauge]', 2e3, 14e3),
     'publish_rate_hz': double(10.0, 'Rate of pressure, joint_states and closure [Hz]',
                               0.001, 100.0),
+    'heartbeat_period_s': double(
+        1.0, "At rest, the period of each panel's own state topics [s of ROS time]",
+        0.01, 3600.0),
     'diagnostics_period_s': double(1.0, 'Period of /diagnostics, wall clock [s]', 0.1, 60.0),
     'setpoint_timeout_s': double(
         10.0, 'No valid setpoint for this long (ROS time) starts the safe behaviour [s]',
@@ -62,30 +77,37 @@ OVERLOADED_S = 1.0
 #: A tick publishes at most this many of the states its loop kept since the last one (the
 #: newest): a loop catching up hours keeps thousands, which would starve the process.
 MAX_STATES_PER_TICK = 20
+#: The Fast DDS profile a panel process uses unless the user gives one (see the file).
+FASTDDS_PROFILE = Path(__file__).resolve().parent.parent / 'fastdds_panel_process.xml'
+PROFILE_VARIABLES = ('FASTRTPS_DEFAULT_PROFILES_FILE', 'FASTDDS_DEFAULT_PROFILES_FILE')
 USAGE = 'panel_node --ros-args -r __ns:=/facade/<id> [-p name:=value ...]'
+_STATUS_CODE = {word: code for code, word in enumerate(contract.STATUSES)}
+_FAULT_STATUS = _STATUS_CODE[contract.STATUS_FAULT]
 
 
 class PanelNode(Node):
-    """Node ``panel`` in namespace ``/facade/<id>``; call :meth:`attach` before spinning."""
+    """Node ``panel`` in namespace ``/facade/<id>``: one panel's topics and service.
 
-    def __init__(self, panel_id=None, **kwargs):
+    ``settings``: the node declares the process's parameters and serves them (``panel_node``,
+    one panel); otherwise (``panel_group``) it has no parameters of its own, no parameter
+    services and no clock of its own, which is what lets a thousand of them start in seconds:
+    the group's settings node holds those for all.
+    """
+
+    def __init__(self, panel_id=None, settings=True, **kwargs):
         if panel_id:
             kwargs.setdefault('namespace', contract.panel_namespace(panel_id))
+        if not settings:
+            kwargs['start_parameter_services'] = False
+            kwargs['parameter_overrides'] = [Parameter('use_sim_time', value=False)]
         super().__init__(contract.PANEL_NODE, **kwargs)
-        declare_all(self, PARAMETERS)
-        self.panel_id = self._resolve_id(panel_id)
-        self.row = None
-        self.guard = SetpointGuard(self._value('setpoint_timeout_s'),
-                                   SafeBehaviour(self._value('safe_behaviour')))
-        self.add_post_set_parameters_callback(self._apply_parameters)
+        if settings:
+            declare_all(self, PARAMETERS)
+        self.panel_id = self._resolve_id(panel_id, settings)
+        self.process, self.index = None, None
 
-    # -- configuration ----------------------------------------------------------------------
-
-    def _value(self, name):
-        return self.get_parameter(name).value
-
-    def _resolve_id(self, panel_id):
-        given = panel_id or self._value('panel_id')
+    def _resolve_id(self, panel_id, settings):
+        given = panel_id or (self.get_parameter('panel_id').value if settings else '')
         from_namespace = self.get_namespace().rstrip('/').rsplit('/', 1)[-1]
         panel_id = given or from_namespace
         if not contract.PANEL_ID.fullmatch(panel_id or ''):
@@ -94,84 +116,186 @@ class PanelNode(Node):
                 f'/facade/<id> (--ros-args -r __ns:=/facade/r00c00) or set panel_id')
         return panel_id
 
-    def loop_settings(self):
-        """Return the read-only settings that panels sharing one loop must agree on."""
-        return {name: self._value(name) for name in LOOP_SETTINGS}
-
-    def attach(self, row):
-        """Drive ``row`` (a :class:`~flectofold_model.control.LoopRow`); start topics, timers."""
-        self.row = row
-        row.set_safe_action(SafeAction(self._value('fault_action')))
-        self._noise_variance = row.sensor_noise_pa ** 2
+    def attach(self, process, index):
+        """Become panel ``index`` of ``process`` (a :class:`PanelProcess`): topics, service."""
+        self.process, self.index = process, index
         panel = self.panel_id
         self._pressure = publisher(self, contract.PRESSURE.of(panel))
         self._joints = publisher(self, contract.JOINT_STATES.of(panel))
         self._closure = publisher(self, contract.CLOSURE.of(panel))
         self._fault = publisher(self, contract.FAULT.of(panel))
         self._status = publisher(self, contract.STATUS.of(panel))
-        self._diagnostics = publisher(self, contract.DIAGNOSTICS)
         subscription(self, contract.SETPOINT.of(panel), self._on_setpoint)
         service(self, contract.reset_faults_service(panel), self._on_reset_faults,
                 contract.RESET_FAULTS_TYPE)
         self._joint_names = contract.flap_joint_names(panel)
-        period_s = 1.0 / self._value('publish_rate_hz')
-        row.request_sample_period(period_s)
-        # Half a loop period of slack: a state rounding puts a hair early still counts.
-        self._decimator = PublishDecimator(period_s, 0.5 * self._value('control_period_s'))
-        self._last_sequence = 0
-        self._published = {'fault': None, 'status': None}
-        self._rejected_since_report = 0
-        self._states_skipped = 0
-        self.create_timer(self._value('control_period_s'), self._tick)
-        self.create_timer(self._value('diagnostics_period_s'), self._report,
-                          clock=Clock(clock_type=ClockType.STEADY_TIME))
-        self._publish_latched(SetpointState.WAITING)
-
-    def _apply_parameters(self, parameters):
-        # Ranges and choices were checked before (declare_all's on_set): apply.
-        for parameter in parameters:
-            if parameter.name == 'setpoint_timeout_s':
-                self.guard.timeout_s = parameter.value
-            elif parameter.name == 'safe_behaviour':
-                self.guard.safe_behaviour = SafeBehaviour(parameter.value)
-            elif parameter.name == 'fault_action' and self.row is not None:
-                self.row.set_safe_action(SafeAction(parameter.value))
-
-    # -- the loop ---------------------------------------------------------------------------
-
-    def _now_s(self):
-        return self.get_clock().now().nanoseconds * 1e-9
+        self._variance = process.loops.driver.circuit.sensor_noise_pa ** 2
 
     def _on_setpoint(self, message):
-        reason = self.guard.offer(message.data, self._now_s())
+        self.process.offer(self.index, message.data, self.get_logger())
+
+    def _on_reset_faults(self, request, response):
+        response.success, response.message = True, self.process.reset_faults(self.index)
+        return response
+
+    def publish_state(self, stamp, closure, fold_angle_rad, measured_pa):
+        """Publish ``pressure`` (when there is a reading), ``joint_states`` and ``closure``."""
+        if math.isfinite(measured_pa):
+            pressure = FluidPressure(fluid_pressure=measured_pa, variance=self._variance)
+            pressure.header.stamp, pressure.header.frame_id = stamp, self.panel_id
+            self._pressure.publish(pressure)
+        joints = JointState(name=self._joint_names, position=[fold_angle_rad, fold_angle_rad])
+        joints.header.stamp = stamp
+        self._joints.publish(joints)
+        self._closure.publish(Float64(data=closure))
+
+    def publish_fault(self, word):
+        """Publish the latched ``fault``."""
+        self._fault.publish(String(data=word))
+
+    def publish_status(self, word):
+        """Publish the latched ``status``."""
+        self._status.publish(String(data=word))
+
+
+class PanelProcess:
+    """The panels of one process: one loop, one timer, the facade-level topics, diagnostics.
+
+    ``settings`` is the node whose parameters the process runs with (and whose clock it
+    reads); ``panels`` the :class:`PanelNode` objects, in the order of ``loops``' rows;
+    ``positions_enu`` their origins in the site's frame (N, 3) [m].
+    """
+
+    def __init__(self, settings, panels, loops, positions_enu):
+        self.settings, self.panels, self.loops = settings, panels, loops
+        value = self._value
+        count = len(panels)
+        self.guards = [SetpointGuard(value('setpoint_timeout_s'),
+                                     SafeBehaviour(value('safe_behaviour')))
+                       for _ in range(count)]
+        loops.set_safe_action(SafeAction(value('fault_action')))
+        self.control_period_s = value('control_period_s')
+        self.heartbeat_s = value('heartbeat_period_s')
+        state_period_s = 1.0 / value('publish_rate_hz')
+        loops.request_sample_period(0, state_period_s)
+        # Half a loop period of slack: a state rounding puts a hair early still counts.
+        self._slack_s = 0.5 * self.control_period_s
+        self._decimator = PublishDecimator(state_period_s, self._slack_s)
+        self._last_sequence = 0
+        self._setpoints = np.zeros(count)
+        self._status = np.zeros(count, dtype=np.uint8)
+        self._published_fault = np.full(count, -1)
+        self._published_status = np.full(count, -1)
+        self._published_s = np.full(count, -math.inf)
+        self._published_reading = np.zeros(count, dtype=bool)
+        self._was_active = np.zeros(count, dtype=bool)
+        self._rejected_since_report = np.zeros(count, dtype=np.int64)
+        self.states_skipped = 0
+        self.states_published = 0
+        self.panel_states_published = 0
+        self._tick_intervals_s, self._last_tick_s = [], None
+        self._tick_cpu_s = 0.0
+        self._table = panel_states.new_table(count)
+        self._table['x'], self._table['y'], self._table['z'] = positions_enu.T
+        self._table['row'], self._table['column'] = panel_states.id_numbers(
+            [panel.panel_id for panel in panels])
+        self._cloud = PointCloud2()
+        self._joint_states = JointState(name=[name for panel in panels
+                                              for name in contract.flap_joint_names(
+                                                  panel.panel_id)])
+        self._cloud_publisher = publisher(settings, contract.PANEL_STATES)
+        self._joints_publisher = publisher(settings, contract.FACADE_JOINT_STATES)
+        self._diagnostics = publisher(settings, contract.DIAGNOSTICS)
+        for index, panel in enumerate(panels):
+            panel.attach(self, index)
+        settings.add_post_set_parameters_callback(self._apply_parameters)
+        settings.create_timer(self.control_period_s, self._tick)
+        settings.create_timer(value('diagnostics_period_s'), self._report,
+                              clock=Clock(clock_type=ClockType.STEADY_TIME))
+        self._publish_latched(np.full(count, _STATUS_CODE[SetpointState.WAITING.value]))
+
+    def _value(self, name):
+        return self.settings.get_parameter(name).value
+
+    def _now_s(self):
+        return self.settings.get_clock().now().nanoseconds * 1e-9
+
+    def _apply_parameters(self, parameters):
+        # Ranges and choices were checked before (declare_all's on_set): apply to every panel.
+        for parameter in parameters:
+            for guard in self.guards:
+                if parameter.name == 'setpoint_timeout_s':
+                    guard.timeout_s = parameter.value
+                elif parameter.name == 'safe_behaviour':
+                    guard.safe_behaviour = SafeBehaviour(parameter.value)
+            if parameter.name == 'fault_action':
+                self.loops.set_safe_action(SafeAction(parameter.value))
+
+    # -- what the panels' nodes hand over ---------------------------------------------------
+
+    def offer(self, index, value, logger):
+        """Take a setpoint that arrived for panel ``index``, or log why not."""
+        guard = self.guards[index]
+        reason = guard.offer(value, self._now_s())
         if reason is not None:
-            self._rejected_since_report += 1
-            self.get_logger().warning(f'rejected setpoint: {reason}; holding '
-                                      f'{self.guard.last_valid:g}', throttle_duration_sec=1.0)
+            self._rejected_since_report[index] += 1
+            logger.warning(f'rejected setpoint: {reason}; holding {guard.last_valid:g}',
+                           throttle_duration_sec=1.0)
             return
-        self.row.set_setpoint(self.guard.last_valid)
+        self.loops.set_setpoints(guard.last_valid, index)
+
+    def reset_faults(self, index):
+        """Clear panel ``index``'s latched fault; return what was cleared."""
+        fault = self.loops.controller.fault_at(index)
+        self.loops.reset_faults([index])
+        return f'cleared {fault.value}' if fault is not Fault.NONE else 'no fault'
+
+    # -- the tick ---------------------------------------------------------------------------
 
     def _tick(self):
+        started = time.process_time()
         now = self._now_s()
         if now <= 0.0:
             return  # use_sim_time before the first /clock
-        closure, state = self.guard.command(now)
-        self.row.set_setpoint(closure)
-        advance = self.row.loops.advance_to(now)
+        if self._last_tick_s is not None and now > self._last_tick_s:
+            self._tick_intervals_s.append(now - self._last_tick_s)
+        self._last_tick_s = now
+        for index, guard in enumerate(self.guards):
+            closure, state = guard.command(now)
+            self._setpoints[index] = closure
+            self._status[index] = _STATUS_CODE[state.value]
+        self.loops.set_setpoints(self._setpoints)
+        advance = self.loops.advance_to(now)
         if advance.skipped_s > 0.0:
-            self.get_logger().warning(f'the clock jumped: {advance.skipped_s:.0f} s were not '
-                                      f'simulated (the plant held; {self.row.skipped_s:.0f} s in '
-                                      f'all)', throttle_duration_sec=5.0)
-        self._publish_latched(state)
+            self.settings.get_logger().warning(
+                f'the clock jumped: {advance.skipped_s:.0f} s were not simulated (the plant '
+                f'held; {self.loops.skipped_s:.0f} s in all)', throttle_duration_sec=5.0)
+        self._publish_latched(self._status)
         self._publish_samples()
+        self._tick_cpu_s += time.process_time() - started
+
+    def _publish_latched(self, status):
+        """Publish each panel's ``fault`` and ``status`` where it changed."""
+        fault = self.loops.controller.fault_codes
+        status = np.where(fault != 0, _FAULT_STATUS, status)
+        self._table['fault'], self._table['status'] = fault, status
+        for index in np.flatnonzero(fault != self._published_fault).tolist():
+            word = contract.FAULTS[fault[index]]
+            self.panels[index].publish_fault(word)
+            if word != contract.NO_FAULT:
+                self.panels[index].get_logger().error(
+                    f'circuit fault {word}: {self._value("fault_action")}')
+        for index in np.flatnonzero(status != self._published_status).tolist():
+            self.panels[index].publish_status(contract.STATUSES[status[index]])
+        self._published_fault[:], self._published_status[:] = fault, status
 
     def _publish_samples(self):
-        # The shared loop keeps its state at each publish instant, also while it catches up
-        # a clock jump in one call: publish those, each with its own stamp; of more than
+        # The loop keeps its state at each publish instant, also while it catches up a clock
+        # jump in one call: publish those, each with its own stamp; of more than
         # MAX_STATES_PER_TICK (a loop racing to catch up), the newest, counting the rest.
-        samples = self.row.samples_since(self._last_sequence, MAX_STATES_PER_TICK)
+        samples = self.loops.samples_since(self._last_sequence, MAX_STATES_PER_TICK)
         if samples:
-            self._states_skipped += samples[0].sequence - self._last_sequence - 1
+            self.states_skipped += samples[0].sequence - self._last_sequence - 1
         for sample in samples:
             self._last_sequence = sample.sequence
             if self._decimator.due(sample.time_s):
@@ -179,86 +303,121 @@ class PanelNode(Node):
 
     def _publish_state(self, sample):
         stamp = Time(nanoseconds=round(sample.time_s * 1e9)).to_msg()
-        if math.isfinite(sample.measured_pa):
-            pressure = FluidPressure(fluid_pressure=sample.measured_pa,
-                                     variance=self._noise_variance)
-            pressure.header.stamp, pressure.header.frame_id = stamp, self.panel_id
-            self._pressure.publish(pressure)
-        angle = sample.fold_angle_rad
-        joints = JointState(name=self._joint_names, position=[angle, angle])
+        self._publish_facade_state(stamp, sample)
+        due = self._panels_due(sample)
+        for index in np.flatnonzero(due).tolist():
+            self.panels[index].publish_state(stamp, float(sample.closure[index]),
+                                             float(sample.fold_angle_rad[index]),
+                                             float(sample.measured_pa[index]))
+        self.states_published += 1
+
+    def _panels_due(self, sample):
+        """Which panels publish their own state topics for ``sample``.
+
+        While the loop moves a panel, and for the first state after, every state; at rest, a
+        heartbeat; and whenever its sensor starts or stops giving a reading.
+        """
+        reading = np.isfinite(sample.measured_pa)
+        due = sample.active | self._was_active | (reading != self._published_reading) | \
+            (sample.time_s - self._published_s >= self.heartbeat_s - self._slack_s)
+        first = ~np.isfinite(self._published_s)
+        self._was_active = sample.active.copy()
+        self._published_s[due] = sample.time_s
+        self._published_reading[due] = reading[due]
+        if np.any(first):
+            # spread the panels' heartbeats over one heartbeat period, not all at once
+            count = len(self.panels)
+            phase = self.heartbeat_s * np.arange(count) / count
+            self._published_s[first] = sample.time_s - phase[first]
+        return due
+
+    def _publish_facade_state(self, stamp, sample):
+        table = self._table
+        table['closure'], table['fold_angle_rad'] = sample.closure, sample.fold_angle_rad
+        table['pressure_pa'], table['setpoint'] = sample.measured_pa, self._setpoints
+        table['active'] = sample.active
+        self._cloud_publisher.publish(panel_states.fill_message(self._cloud, table, stamp,
+                                                                PointField))
+        joints = self._joint_states
         joints.header.stamp = stamp
-        self._joints.publish(joints)
-        self._closure.publish(Float64(data=sample.closure))
-
-    def _publish_latched(self, state):
-        fault = self.row.fault
-        status = contract.STATUS_FAULT if fault is not Fault.NONE else state.value
-        for key, value, publisher_ in (('fault', fault.value, self._fault),
-                                       ('status', status, self._status)):
-            if self._published[key] != value:
-                self._published[key] = value
-                publisher_.publish(String(data=value))
-                if key == 'fault' and value != contract.NO_FAULT:
-                    self.get_logger().error(f'circuit fault {value}: '
-                                            f'{self._value("fault_action")}')
-
-    def _on_reset_faults(self, request, response):
-        fault = self.row.fault
-        self.row.reset_faults()
-        response.success = True
-        response.message = f'cleared {fault.value}' if fault is not Fault.NONE else 'no fault'
-        return response
+        joints.position = array.array('d', np.repeat(sample.fold_angle_rad, 2).tobytes())
+        self._joints_publisher.publish(joints)
+        self.panel_states_published += 1
 
     # -- diagnostics ------------------------------------------------------------------------
 
     def _report(self):
-        self._diagnostics.publish(diagnostics.diagnostic_array(self, [self.diagnostic_status()]))
-        self._rejected_since_report = 0
+        now = self._now_s()
+        statuses = [self.panel_status(index, now) for index in range(len(self.panels))]
+        statuses.append(self.process_status())
+        self._diagnostics.publish(diagnostics.diagnostic_array(self.settings, statuses))
+        self._rejected_since_report[:] = 0
 
-    def diagnostic_status(self):
-        """Return the panel's REP-107 status: level, message and figures."""
-        row, guard = self.row, self.guard
-        fault = row.fault
-        state = guard.state(self._now_s()) if self._now_s() > 0.0 else SetpointState.WAITING
+    def panel_status(self, index, now_s):
+        """Return panel ``index``'s REP-107 status: level, message and figures."""
+        loops, guard, node = self.loops, self.guards[index], self.panels[index]
+        controller = loops.controller
+        fault = controller.fault_at(index)
+        state = guard.state(now_s) if now_s > 0.0 else SetpointState.WAITING
         level, message = diagnostics.OK, state.value
         if state is SetpointState.TIMED_OUT:
             level, message = diagnostics.WARN, (
                 f'no setpoint for {guard.timeout_s:g} s: {guard.safe_behaviour.value}')
-        elif self._rejected_since_report:
+        elif self._rejected_since_report[index]:
             level, message = diagnostics.WARN, (
-                f'rejected {self._rejected_since_report} setpoint(s): {guard.last_rejection}')
-        elif row.limited_by_supply:
+                f'rejected {self._rejected_since_report[index]} setpoint(s): '
+                f'{guard.last_rejection}')
+        elif controller.limited_by_supply[index]:
             level, message = diagnostics.WARN, 'supply too weak for the setpoint'
-        if row.behind_s > OVERLOADED_S and level == diagnostics.OK:
+        if loops.behind_s > OVERLOADED_S and level == diagnostics.OK:
             level, message = diagnostics.WARN, (
-                f'overloaded: the simulation is {row.behind_s:.1f} s behind the clock')
+                f'overloaded: the simulation is {loops.behind_s:.1f} s behind the clock')
         if fault is not Fault.NONE:
             level, message = diagnostics.ERROR, f'circuit fault: {fault.value}'
+        closure, fold_angle = loops._current_feedback()
         figures = {
-            'setpoint': guard.last_valid, 'tracked_closure': row.setpoint,
-            'closure': row.closure, 'fold_angle_rad': row.fold_angle_rad,
-            'pressure_gauge_pa': row.gauge_pa, 'target_gauge_pa': row.target_gauge_pa,
+            'setpoint': guard.last_valid, 'tracked_closure': float(self._setpoints[index]),
+            'closure': float(closure[index]), 'fold_angle_rad': float(fold_angle[index]),
+            'pressure_gauge_pa': float(controller.filtered_gauge_pa[index]),
+            'target_gauge_pa': float(controller.target_gauge_pa[index]),
             'fault': fault.value, 'setpoint_state': state.value,
             contract.DIAGNOSTIC_SETPOINTS_REJECTED: guard.rejected,
             'last_rejection': guard.last_rejection,
-            contract.DIAGNOSTIC_FREE_AIR_NL: row.free_air_used_nl,
-            'sim_time_skipped_s': self.row.skipped_s,
-            contract.DIAGNOSTIC_STATES_SKIPPED: self._states_skipped,
-            'loop_time_s': row.time_s if row.time_s is not None else math.nan,
-            contract.DIAGNOSTIC_BEHIND_S: row.behind_s,
+            contract.DIAGNOSTIC_FREE_AIR_NL: float(loops.free_air_used_nl[index]),
+            'sim_time_skipped_s': loops.skipped_s,
+            contract.DIAGNOSTIC_STATES_SKIPPED: self.states_skipped,
+            'loop_time_s': loops.time_s if loops.time_s is not None else math.nan,
+            contract.DIAGNOSTIC_BEHIND_S: loops.behind_s,
         }
-        return diagnostics.status(self, level, 'pressure loop', self.panel_id, message,
+        return diagnostics.status(node, level, 'pressure loop', node.panel_id, message, figures)
+
+    def process_status(self):
+        """Return the process's REP-107 status: its panels, its tick and what it published."""
+        intervals = np.array(self._tick_intervals_s)
+        self._tick_intervals_s = []
+        jitter = np.abs(intervals - self.control_period_s)
+        p50, p99 = (np.percentile(jitter, [50, 99]) if len(jitter) else (math.nan, math.nan))
+        figures = {
+            'panels': len(self.panels), 'ticks': len(intervals),
+            contract.DIAGNOSTIC_TICK_JITTER_P50_S: float(p50),
+            contract.DIAGNOSTIC_TICK_JITTER_P99_S: float(p99),
+            'tick_cpu_s': self._tick_cpu_s,
+            'states_published': self.states_published,
+            contract.DIAGNOSTIC_STATES_SKIPPED: self.states_skipped,
+            contract.DIAGNOSTIC_BEHIND_S: self.loops.behind_s,
+        }
+        return diagnostics.status(self.settings, diagnostics.OK, 'panel process',
+                                  self.settings.get_name(), f'{len(self.panels)} panels',
                                   figures)
 
-    def destroy_node(self):
-        if self.row is not None:
-            self.row.loops.close()
-        return super().destroy_node()
+    def close(self):
+        """Shut the valves: the panels keep their air (a held position) until vented."""
+        self.loops.close()
 
 
 def build_loops(node, panel_ids, seed=0):
-    """Build the shared :class:`~flectofold_model.control.PanelLoops` from ``node``'s settings."""
-    settings = node.loop_settings()
+    """Build the shared loops from ``node``'s settings; return them and the panels' origins."""
+    settings = {name: node.get_parameter(name).value for name in LOOP_SETTINGS}
     facade = load_facade(settings['facade_file'] or DEFAULT_FACADE)
     parameters = ControllerParameters(
         max_gauge_pa=settings['max_gauge_pressure_pa'],
@@ -269,41 +428,86 @@ def build_loops(node, panel_ids, seed=0):
                          seed=seed, quiet_period_s=settings['simulation.quiet_period_s'],
                          max_call_s=MAX_CALL_S)
     compile_kernels()  # here, before the panels report ready, not in their first tick
-    return loops
+    origins = facade.origin_m[panel_indices(facade, panel_ids)] @ facade.facade_to_enu.T
+    return loops, origins
 
 
-def start_panels(panel_ids, seed=0, **node_kwargs):
-    """Create one :class:`PanelNode` per id on one shared loop; return the nodes.
+class PanelProgram(Program):
+    """A panel process as a program: on close, the valves shut.
 
-    ``panel_ids`` None: one node whose id comes from its namespace or ``panel_id``.
+    As an executable (``panel_node``, ``panel_group``) it ends its process right after, without
+    tearing down its DDS entities one by one (:attr:`Program.teardown`): 500 panel nodes took
+    31 s to destroy; the process's end frees them, and its peers drop its participant when
+    its lease runs out (``fastdds_panel_process.xml``: 3 s).
+    """
+
+    def __init__(self, nodes, process, teardown=True):
+        self.teardown = teardown
+        super().__init__(nodes)
+        self.process = process
+
+    def close(self, interrupted):
+        self.process.close()
+
+
+def start_panels(panel_ids=None, group_name=None, seed=0, teardown=True, **node_kwargs):
+    """Create the panel nodes of one process on one shared loop; return the :class:`Program`.
+
+    ``group_name`` None: one :class:`PanelNode` (its id from ``panel_ids[0]``, its namespace
+    or ``panel_id``) that also holds the parameters. Otherwise a settings node
+    ``/facade/<group_name>`` holds them for one light node per id of ``panel_ids``.
     """
     nodes = []
     try:
-        for panel_id in panel_ids or [None]:
-            nodes.append(PanelNode(panel_id, **node_kwargs))
-        settings = nodes[0].loop_settings()
-        for node in nodes[1:]:
-            if node.loop_settings() != settings:
-                raise ValueError(f'{node.panel_id}: loop settings {node.loop_settings()} differ '
-                                 f'from {nodes[0].panel_id}: {settings}')
-        loops = build_loops(nodes[0], [node.panel_id for node in nodes], seed=seed)
+        if group_name is None:
+            nodes.append(PanelNode((panel_ids or [None])[0], **node_kwargs))
+            settings, panels = nodes[0], nodes
+        else:
+            nodes.append(Node(group_name, namespace=contract.FACADE_NODE_NAMESPACE,
+                              **node_kwargs))
+            declare_all(nodes[0], PARAMETERS)
+            for panel_id in panel_ids:
+                nodes.append(PanelNode(panel_id, settings=False))
+            settings, panels = nodes[0], nodes[1:]
+        ids = [panel.panel_id for panel in panels]
+        if len(set(ids)) != len(ids):
+            raise ValueError(f'a panel is named twice in {", ".join(ids)}')
+        loops, origins = build_loops(settings, ids, seed=seed)
+        process = PanelProcess(settings, panels, loops, origins)
     except BaseException:
         for node in nodes:
             node.destroy_node()
         raise
-    for index, node in enumerate(nodes):
-        node.attach(loops.row(index))
-    ids = [node.panel_id for node in nodes]
-    nodes[0].get_logger().info(f'{len(nodes)} panel(s) ready: {", ".join(ids)}')
-    return nodes
+    settings.get_logger().info(f'{len(panels)} panel(s) ready: {_id_span(ids)}')
+    return PanelProgram(nodes, process, teardown)
 
 
-def run_panels(name, args, panel_ids=lambda: None, usage=None, **node_kwargs):
-    """Run panel nodes until a stop signal: the body of ``panel_node`` and ``panel_group``.
+def _id_span(ids):
+    return ', '.join(ids) if len(ids) <= 6 else f'{ids[0]} ... {ids[-1]}'
+
+
+def use_panel_process_profile(environ=os.environ):
+    """Give Fast DDS the panel process's profile, unless the user chose a profile or an RMW.
+
+    Called before rclpy starts; see ``fastdds_panel_process.xml``.
+    """
+    if any(environ.get(name) for name in PROFILE_VARIABLES):
+        return
+    if environ.get('RMW_IMPLEMENTATION', 'rmw_fastrtps_cpp') != 'rmw_fastrtps_cpp':
+        return
+    environ['FASTRTPS_DEFAULT_PROFILES_FILE'] = str(FASTDDS_PROFILE)
+
+
+def run_panels(name, args, panel_ids=lambda: None, group_name=None, usage=None,
+               **node_kwargs):
+    """Run a panel process until a stop signal: the body of ``panel_node`` and ``panel_group``.
 
     ``panel_ids()`` gives the ids (None: one node, its id from its namespace).
     """
-    return run_nodes(name, args, lambda: Program(start_panels(panel_ids(), **node_kwargs)),
+    use_panel_process_profile()
+    return run_nodes(name, args,
+                     lambda: start_panels(panel_ids(), group_name, teardown=False,
+                                          **node_kwargs),
                      usage, PARAMETERS)
 
 

@@ -1,8 +1,9 @@
 """Many panel nodes in one process on one events executor and one vectorised loop.
 
 ``ros2 run flectofold_ros panel_group --panels r00c00,r00c01`` or ``--group 2/3`` (the third of
-three equal slices of the facade's panels). Parameters given with ``--ros-args -p`` reach
-every panel node of the process; see ``msg_docs/panel_node.md``.
+three equal slices of the facade's panels). The process's parameters live on its settings node
+``/facade/panel_group_<K>`` (``--name``): ``--ros-args -p`` at start, ``ros2 param set`` at run
+time, for every panel of the process; see ``msg_docs/panel_node.md``.
 """
 
 import argparse
@@ -38,6 +39,10 @@ def parse_arguments(argv):
     which = parser.add_mutually_exclusive_group(required=True)
     which.add_argument('--panels', help='comma-separated panel ids, e.g. r00c00,r00c01')
     which.add_argument('--group', type=_group, help='K/N: slice K (from 0) of N of the facade')
+    parser.add_argument('--name', default='',
+                        help="name of the process's settings node in /facade (default: "
+                             'panel_group_K for --group K/N, panel_group_<first id> for '
+                             '--panels)')
     parser.add_argument('--facade', default='',
                         help='facade YAML (default: the embedded demonstrator); sets the '
                              "nodes' facade_file parameter")
@@ -58,7 +63,10 @@ def main(args=None):
         facade = load_facade(options.facade or DEFAULT_FACADE)
         return group_slice(facade.panel_ids, *options.group)
 
-    return run_panels('panel_group', args, panel_ids, parameter_overrides=overrides)
+    name = options.name or (f'panel_group_{options.group[0]}' if options.group
+                            else f'panel_group_{options.panels.split(",")[0].strip()}')
+    return run_panels('panel_group', args, panel_ids, group_name=name,
+                      parameter_overrides=overrides)
 
 
 if __name__ == '__main__':

@@ -19,8 +19,10 @@ from flectofold_ros.runner import Program, run_nodes
 
 #: Wall seconds between the player's looks for messages that are due.
 PLAY_PERIOD_S = 0.01
-#: Wall seconds the new publishers get to match their subscribers before the first message.
-MATCH_S = 0.5
+#: Wall seconds the new publishers get to match their subscribers before the first message:
+#: at least the first, then until every topic has a subscriber, at most the second (a topic
+#: nobody listens to must not hold the others back for long).
+MATCH_S, MATCH_MAX_S = 0.5, 3.0
 
 
 class Player(Node):
@@ -41,7 +43,7 @@ class Player(Node):
         self.create_timer(PLAY_PERIOD_S, self._play, clock=Clock(clock_type=ClockType.STEADY_TIME))
 
     def _play(self):
-        if self.finished or time.monotonic() - self._created < MATCH_S:
+        if self.finished or not self._matched():
             return
         if self._messages is None:
             self._messages = read_messages(self.options.bag, self.selected)
@@ -61,6 +63,13 @@ class Player(Node):
             self.publishers_[topic].publish(raw)
             self.published += 1
             self._pending = None
+
+    def _matched(self):
+        waited = time.monotonic() - self._created
+        if self._messages is not None or waited >= MATCH_MAX_S:
+            return True
+        return waited >= MATCH_S and all(p.get_subscription_count() > 0
+                                         for p in self.publishers_.values())
 
     def _end_of_pass(self):
         self.passes += 1

@@ -1,11 +1,12 @@
-"""Stream the facade's 3D state to Rerun: every panel's folded mesh, the sun, plots and faults.
+"""Stream the facade's 3D state to Rerun: every panel folded in one mesh, the sun, plots, faults.
 
 ``ros2 run flectofold_ros rerun_bridge [--ros-args -p use_sim_time:=true -p rrd_path:=day.rrd]``.
-The node subscribes to every panel's state and the sun, and hands them to
-:class:`flectofold_ros.rerun.scene.FacadeScene`, which rebuilds the meshes with
-``flectofold_model`` and logs them on the ROS time. Sinks: a viewer (one it spawns, bound to
-127.0.0.1, or one at a gRPC address) and/or an ``.rrd`` file. Topics, parameters and the
-entity layout: ``msg_docs/rerun_bridge.md``.
+The node subscribes to ``/facade/panel_states`` (one message per panel process and state) and
+the sun, and hands them to :class:`flectofold_ros.rerun.scene.FacadeScene`, which rebuilds the
+meshes of the panels that moved with ``flectofold_model`` and logs the facade as one batched
+mesh on the ROS time. Sinks: a viewer (one it spawns, bound to 127.0.0.1, or one at a gRPC
+address) and/or an ``.rrd`` file. Topics, parameters and the entity layout:
+``msg_docs/rerun_bridge.md``.
 """
 
 from datetime import datetime
@@ -34,7 +35,7 @@ PARAMETERS = {
     'viewer_port': integer(9876, 'Port of a spawned viewer (bound to 127.0.0.1)', 1024, 65535),
     'rrd_path': string('', 'Also save the recording to this .rrd; empty: save '
                        'flectofold_<time>.rrd in the working directory when no viewer is used'),
-    'flush_period_s': double(0.2, 'Wall time between logging what changed [s]', 0.01, 10.0),
+    'flush_period_s': double(0.1, 'Wall time between logging what changed [s]', 0.01, 10.0),
     'min_change_rad': double(
         1e-3, 'A panel is re-meshed when its fold angle moved more than this [rad]', 0.0, 0.0999),
     'strict': boolean(False, 'Rerun strict mode: logging errors raise instead of warning'),
@@ -63,8 +64,7 @@ class RerunBridge(Node):
         self.scene.log_static()
         for topic in scene_topics(facade):
             # A panel loop catching up publishes its states in a burst: keep them all.
-            subscription(self, topic, self._callback(topic.name),
-                         None if topic.qos.latched else contract.OBSERVER)
+            subscription(self, topic, self._callback(topic.name), contract.OBSERVER)
         steady = Clock(clock_type=ClockType.STEADY_TIME)
         self.create_timer(value('flush_period_s'), self.flush, clock=steady)
         self._diagnostics = publisher(self, contract.DIAGNOSTICS)
@@ -72,6 +72,8 @@ class RerunBridge(Node):
         self.started = time.monotonic()
         self.lag_s = []
         self.flush_wall_s = 0.0
+        self.flush_max_s = 0.0
+        self.flushes = 0
 
     def _value(self, name):
         return self.get_parameter(name).value
@@ -84,21 +86,29 @@ class RerunBridge(Node):
     def flush(self):
         """Log what changed; note how far the logged state trails the ROS clock."""
         started = time.perf_counter()
-        meshes = self.scene.flush()
-        self.flush_wall_s += time.perf_counter() - started
+        remeshed = self.scene.flush()
+        took_s = time.perf_counter() - started
+        self.flush_wall_s += took_s
+        self.flush_max_s = max(self.flush_max_s, took_s)
+        self.flushes += 1
         now_ns = self.get_clock().now().nanoseconds
-        if meshes and self.scene.newest_stamp_ns > 0:
+        if remeshed and self.scene.newest_stamp_ns > 0:
             self.lag_s.append(max(0.0, (now_ns - self.scene.newest_stamp_ns) * 1e-9))
 
     def figures(self):
-        """Return counts, meshes per second (wall) and lag of the logged state [s]."""
+        """Return counts, panel re-meshes per second (wall), flush times and lag [s]."""
         wall_s = max(time.monotonic() - self.started, 1e-9)
         counts = self.scene.counts
         lag = sorted(self.lag_s)
-        return {'meshes_logged': counts.meshes_logged,
-                'meshes_unchanged': counts.meshes_unchanged,
-                'meshes_per_s': counts.meshes_logged / wall_s,
-                'samples_logged': counts.samples_logged, 'rejected': counts.rejected,
+        return {'states_taken': counts.states_taken,
+                'meshes_logged': counts.meshes_logged,
+                'panels_remeshed': counts.panels_remeshed,
+                'panels_unchanged': counts.panels_unchanged,
+                'panels_remeshed_per_s': counts.panels_remeshed / wall_s,
+                'samples_logged': counts.samples_logged,
+                'events_logged': counts.events_logged, 'rejected': counts.rejected,
+                'flush_mean_s': self.flush_wall_s / max(self.flushes, 1),
+                'flush_max_s': self.flush_max_s,
                 'lag_median_s': lag[len(lag) // 2] if lag else 0.0,
                 'lag_max_s': lag[-1] if lag else 0.0,
                 'lag_last_s': self.lag_s[-1] if self.lag_s else 0.0,
@@ -108,18 +118,20 @@ class RerunBridge(Node):
         figures = self.figures()
         self._diagnostics.publish(diagnostics.diagnostic_array(self, [diagnostics.status(
             self, diagnostics.OK, 'rerun', contract.RERUN_BRIDGE_NODE,
-            f'{figures["meshes_logged"]} meshes logged', figures)]))
+            f'{figures["meshes_logged"]} facade meshes logged', figures)]))
 
     def summary(self):
         """One line for the end of a run."""
         f = self.figures()
         where = [str(self.rrd_path)] if self.rrd_path else []
         where += [self.viewer_url] if self.viewer_url else []
-        return (f'rerun_bridge: {f["meshes_logged"]} meshes ({f["meshes_per_s"]:.1f}/s, '
-                f'{f["meshes_unchanged"]} unchanged skipped), {f["samples_logged"]} samples; '
-                f'lag behind the clock median {f["lag_median_s"]:.1f} s, max '
-                f'{f["lag_max_s"]:.1f} s; flush {100 * f["flush_cpu_share"]:.1f} % of wall; '
-                f'to {", ".join(where)}')
+        return (f'rerun_bridge: {f["meshes_logged"]} facade meshes, {f["panels_remeshed"]} '
+                f'panels re-meshed ({f["panels_remeshed_per_s"]:.1f}/s, '
+                f'{f["panels_unchanged"]} unchanged skipped), {f["samples_logged"]} samples, '
+                f'{f["rejected"]} rejected; lag behind the clock median '
+                f'{f["lag_median_s"]:.1f} s, max {f["lag_max_s"]:.1f} s; flush mean '
+                f'{1e3 * f["flush_mean_s"]:.1f} ms, max {1e3 * f["flush_max_s"]:.1f} ms, '
+                f'{100 * f["flush_cpu_share"]:.1f} % of wall; to {", ".join(where)}')
 
     def close(self):
         """Log the last changes and finish the file (its footer)."""

@@ -1,9 +1,9 @@
 """Turn a recorded bag into a Rerun ``.rrd`` without a running graph (and without rclpy).
 
-The bag's messages go, in time order, through the same :func:`flectofold_ros.rerun.scene.feed`
-as the live ``rerun_bridge`` gets them, so the file shows what the live bridge showed. The
-bag's record time stands in for the bridge's receive time (the recorder stamps with the same
-ROS clock).
+The bag's ``/facade/panel_states`` and ``/facade/sun`` go, in record-time order, through the
+same :func:`flectofold_ros.rerun.scene.feed` as the live ``rerun_bridge`` gets them, so the
+file shows what the live bridge showed (both topics are stamped; the record time only paces
+the flushes).
 """
 
 from pathlib import Path
@@ -12,6 +12,7 @@ import struct
 from rosbags.serde import SerdeError
 from rosbags.typesys import get_typestore, Stores
 
+from flectofold_ros import contract
 from flectofold_ros.recording.bag_segments import (bag_topics, BagError, read_messages,
                                                    require_topics, topic_list)
 from flectofold_ros.rerun.scene import FacadeScene, feed, scene_topics
@@ -48,17 +49,21 @@ def convert(bag_path, rrd_path, facade, color_by='closure', flush_period_s=1.0,
 
     Every published state is kept (the live bridge merges states that arrive between two of
     its flushes); ``flush_period_s`` of bag (ROS) time batches the time series.
-    ``topics`` restricts the conversion to some of the bag's topics.
+    ``topics`` restricts the conversion to some of the bag's topics. The bag must hold
+    ``/facade/panel_states`` (``BagError`` otherwise): bags with only the per-panel topics,
+    as recorded before it existed, are not supported.
     """
     rrd_path = check_rrd_path(rrd_path)
     available = bag_topics(bag_path)
     if topics is not None:
         require_topics(bag_path, available, topics)
         available = {topic: available[topic] for topic in topics}
+    if contract.PANEL_STATES.name not in available:
+        raise BagError(f'{bag_path}: no {contract.PANEL_STATES.name} in the '
+                       f'{"chosen topics" if topics is not None else "bag"} (it has '
+                       f'{topic_list(available)}); the scene is built from it, and bags '
+                       f'recorded with only the per-panel topics cannot be converted')
     wanted = [topic.name for topic in scene_topics(facade) if topic.name in available]
-    if not wanted:
-        raise BagError(f'{bag_path}: no topic of facade {facade.name!r} in the bag '
-                       f'(it has {topic_list(available)})')
     recording = open_recording(f'{facade.name}-{Path(bag_path).name}', None, rrd_path, strict)
     scene = FacadeScene(facade, recording, color_by, min_change_rad, every_state=True)
     scene.log_static()

@@ -1,64 +1,141 @@
-"""The facade in Rerun: folded panel meshes, sun, surface, time series and status, on ROS time.
+"""The facade in Rerun: every panel folded in one batched mesh, the sun, series and events.
 
 No rclpy here. The live ``rerun_bridge`` node and the offline bag converter (``replay
 --to-rrd``) feed the same :class:`FacadeScene` with plain values, so a bag converted later
 gives the recording the live bridge gave.
 
+The input is ``/facade/panel_states`` (:mod:`flectofold_ros.panel_states`): one message per
+panel process and state instant, a table of that process's panels. The scene logs a constant
+number of Rerun calls per flush whatever the panel count (one mesh, one column batch per time
+series, one for the events), so 1,000 panels cost about what 36 do in calls; the data is kept
+small by a facade-scale mesh resolution (:func:`facade_topology`).
+
 Entity layout (timeline ``ros_time``, a timestamp from the message stamps; world frame = the
-site's ENU frame, z up, REP-103):
+site's ENU frame, z up, REP-103), documented with what is logged when in
+``msg_docs/rerun_bridge.md``:
 
 - ``/facade/surface``: the facade surface, one facet per patch (static).
-- ``/facade/panels/<id>``: the panel's pose on the facade (static ``Transform3D``).
-- ``/facade/panels/<id>/mesh``: the folded panel from ``flectofold_model`` with vertex normals.
-  Faces are static; vertex positions and normals are logged when the fold angle changes by
-  more than ``min_change_rad``; the colour (albedo) when the panel's colour changes: closure or
-  gauge pressure on a light-to-dark ramp, red while the panel reports a fault.
+- ``/facade/panels``: ONE ``Mesh3D`` of all panels, vertices in world coordinates, panel ``i``
+  owning vertices ``[i V, (i + 1) V)`` (``V`` static as ``vertices_per_panel``, the ids as
+  ``panel_id``). Triangles static; positions and normals when a panel moved more than
+  ``min_change_rad``; vertex colours when a panel's colour changed.
+- ``/facade/panel_frames``: each panel's origin (``Points3D`` labelled with its id) and its
+  frame (``panel_to_enu``, 9 numbers per panel, row-major), static.
 - ``/sun``: an arrow from the sun toward the facade (cleared below the horizon).
-- ``/metrics/pressure_gauge_pa/<id>``, ``/metrics/fold_angle_rad/<id>``,
-  ``/metrics/closure/<id>``: time series.
-- ``/facade/events``: text log of every panel status and fault change.
+- ``/metrics/closure``, ``/metrics/pressure_gauge_pa``, ``/metrics/fold_angle_rad``: one scalar
+  per panel per row (series named by the panel ids); ``/metrics/closure_mean``: the facade's
+  mean closure and its min and max, three series.
+- ``/facade/events``: text log of panel status and fault changes.
 
 Inputs are checked: an unknown panel id or a non-finite value is counted in ``rejected`` and
 not logged, so a bad message never corrupts the recording.
 """
 
 from dataclasses import dataclass
-import math
 
 import numpy as np
 import rerun as rr
 import rerun.blueprint as rrb
+from scipy.special import ellipe, ellipk
 
 from flectofold_model.actuation import ATMOSPHERIC_PRESSURE_PA
+from flectofold_model.kinematics import elastica
 from flectofold_model.kinematics.closure import FoldModel
-from flectofold_model.kinematics.mesh import fold_mesh
+from flectofold_model.kinematics.mesh import DEFAULT_TOPOLOGY, fold_mesh, MeshTopology
 from flectofold_model.kinematics.panel import PanelBatch
-from flectofold_ros import contract
+from flectofold_model.kinematics.reflection import sag_for_apex_fold_angle
+from flectofold_ros import contract, panel_states
 
 TIMELINE = 'ros_time'
 COLOR_MODES = ('closure', 'pressure')
+PANELS = '/facade/panels'
+PANEL_FRAMES = '/facade/panel_frames'
+SURFACE = '/facade/surface'
+EVENTS = '/facade/events'
+SUN = '/sun'
+#: The per-panel time series: ``/metrics/<name>``, one scalar per panel per row.
+SERIES = ('closure', 'pressure_gauge_pa', 'fold_angle_rad')
+CLOSURE_MEAN = '/metrics/closure_mean'
+#: The series of ``/metrics/closure_mean``, in the order of each row's three scalars.
+CLOSURE_BAND = ('mean', 'min', 'max')
 #: Gauge pressure at the dark end of the pressure colour ramp [Pa].
 PRESSURE_FULL_SCALE_PA = 12e3
 FAULT_RGBA = (215, 38, 38, 255)
+#: A panel with no state yet (or, coloured by pressure, no pressure reading).
+NO_STATE_RGBA = (128, 128, 128, 255)
 #: Open (0) to closed (1): sand to deep blue-green.
 _RAMP = np.array([[236, 226, 198], [122, 170, 160], [24, 78, 104]], dtype=float)
 _SURFACE_RGBA = (150, 150, 150, 90)
+_BAND_COLOURS = [(24, 78, 104, 255), (122, 170, 160, 255), (122, 170, 160, 255)]
 SUN_ARROW_M = 3.0
-SERIES = ('pressure_gauge_pa', 'fold_angle_rad', 'closure')
+#: Vertices of the whole facade mesh that :func:`facade_topology` stays within.
+FACADE_VERTEX_BUDGET = 60_000
+
+
+def _sag_ratio(k):
+    """``sag / L = k / K(k^2)`` of the pinned elastica (:func:`elastica.sag_from_k` / L)."""
+    return k / ellipk(np.square(k))
+
+
+_K_TABLE = np.linspace(0.0, elastica.K_MAX, 1025)
+_RATIO_TABLE = _sag_ratio(_K_TABLE)
+
+
+def k_from_sag(sag_m, length_m):
+    """:func:`elastica.k_from_sag` without its general root finder, for the per-flush path.
+
+    ``sag / L`` depends on ``k`` alone, so a table of it gives ``k`` to about 1e-7, and two
+    Newton steps on the closed form (derivative from ``dK/dm = (E - (1 - m) K) / (2 m (1 -
+    m))``) take that to rounding. The root finder costs about 10 ms a call whatever the
+    panel count, this a few hundred microseconds for 1,000 panels; a test checks they agree.
+    """
+    ratio = np.clip(np.asarray(sag_m, dtype=float) / length_m, 0.0, _RATIO_TABLE[-1])
+    k = np.interp(ratio, _RATIO_TABLE, _K_TABLE)
+    for _ in range(2):
+        m = np.square(k)
+        big_k, big_e = ellipk(m), ellipe(m)
+        slope = 1.0 / big_k - (big_e - (1.0 - m) * big_k) / ((1.0 - m) * np.square(big_k))
+        k = np.clip(k - (k / big_k - ratio) / slope, 0.0, elastica.K_MAX)
+    return k
+
+
+def facade_topology(panel_count, vertex_budget=FACADE_VERTEX_BUDGET):
+    """Return the mesh topology for a facade of ``panel_count`` panels.
+
+    Every row of a mesh block is a straight segment (a generator of the mid-rib cylinder or its
+    mirror image) with one normal, so two columns per block give the same surface and shading
+    as any finer column count; only the stations along the mid-rib shape the fold. This takes
+    two columns per block and the most stations, odd (one at mid-span, the apex) and at most
+    the display default's 21, for which the whole facade has at most ``vertex_budget``
+    vertices, but at least 3. The demonstrator's 36 panels get 21 stations (126 vertices a
+    panel, the default mesh's shape); 1,000 panels get 9 (54 vertices, within 4 mm of the
+    fine mesh on a 1 m panel).
+    """
+    stations = DEFAULT_TOPOLOGY.stations
+    while stations > 3 and panel_count * 6 * stations > vertex_budget:
+        stations -= 2
+    return MeshTopology(stations=stations, midrib_columns=2, flap_columns=2)
 
 
 @dataclass
 class SceneCounts:
-    """What a scene has logged so far."""
+    """What a scene has taken and logged so far."""
 
+    states_taken: int = 0
+    """Panel states (one panel in one message) accepted."""
     meshes_logged: int = 0
-    meshes_unchanged: int = 0
-    """Panel updates not re-meshed because the fold angle moved less than the threshold."""
+    """Facade meshes logged (new vertex positions of ``/facade/panels``)."""
+    panels_remeshed: int = 0
+    """Panel meshes rebuilt for them (the panels that moved)."""
+    panels_unchanged: int = 0
+    """Panel states not re-meshed because the fold angle moved less than the threshold."""
     colours_logged: int = 0
     samples_logged: int = 0
+    """Scalars logged to the per-panel series (one per panel, quantity and row)."""
     events_logged: int = 0
     rejected: int = 0
-    """Unknown panel ids and non-finite values, dropped."""
+    """Messages that are not panel states; panel states of unknown panels or with non-finite
+    values; bad sun vectors. Dropped."""
 
 
 def facade_blueprint():
@@ -74,39 +151,73 @@ def facade_blueprint():
             rrb.Spatial3DView(origin='/', contents=['/facade/**', '/sun/**'], name='Facade 3D'),
             rrb.Vertical(
                 rrb.Tabs(
-                    rrb.TimeSeriesView(origin='/metrics/pressure_gauge_pa',
-                                       name='Cushion pressure [Pa gauge]', axis_x=whole),
+                    rrb.TimeSeriesView(origin=CLOSURE_MEAN,
+                                       name='Closure: facade mean, min, max [-]', axis_x=whole),
                     rrb.TimeSeriesView(origin='/metrics/closure', name='Closure [-]',
                                        axis_x=whole),
+                    rrb.TimeSeriesView(origin='/metrics/pressure_gauge_pa',
+                                       name='Cushion pressure [Pa gauge]', axis_x=whole),
                 ),
                 rrb.TimeSeriesView(origin='/metrics/fold_angle_rad', name='Fold angle [rad]',
                                    axis_x=whole),
-                rrb.TextLogView(origin='/facade/events', name='Faults and status'),
+                rrb.TextLogView(origin=EVENTS, name='Faults and status'),
                 row_shares=[2, 2, 1]),
             column_shares=[3, 2]),
         collapse_panels=True)
 
 
+def ramp_colours(fractions):
+    """(N, 4) uint8 RGBA of fractions in [0, 1] on the open-to-closed ramp (clipped)."""
+    position = np.clip(np.asarray(fractions, dtype=float), 0.0, 1.0) * (len(_RAMP) - 1)
+    low = np.minimum(position.astype(int), len(_RAMP) - 2)
+    rgb = _RAMP[low] + (position - low)[..., None] * (_RAMP[low + 1] - _RAMP[low])
+    rgba = np.full(position.shape + (4,), 255, dtype=np.uint8)
+    rgba[..., :3] = np.round(rgb)
+    return rgba
+
+
 def ramp_colour(fraction):
-    """RGBA (uint8) of a fraction in [0, 1] on the open-to-closed ramp (clipped)."""
-    fraction = float(np.clip(fraction, 0.0, 1.0)) * (len(_RAMP) - 1)
-    low = min(int(fraction), len(_RAMP) - 2)
-    rgb = _RAMP[low] + (fraction - low) * (_RAMP[low + 1] - _RAMP[low])
-    return tuple(int(round(c)) for c in rgb) + (255,)
+    """RGBA (uint8 tuple) of a fraction in [0, 1] on the open-to-closed ramp (clipped)."""
+    return tuple(int(c) for c in ramp_colours([float(fraction)])[0])
+
+
+def packed(rgba):
+    """Rerun's packed ``0xRRGGBBAA`` of (..., 4) uint8 colours."""
+    rgba = np.asarray(rgba, dtype=np.uint32)
+    return (rgba[..., 0] << 24) | (rgba[..., 1] << 16) | (rgba[..., 2] << 8) | rgba[..., 3]
+
+
+@dataclass(frozen=True)
+class _Update:
+    """One panel_states message, reduced to the valid points of known panels."""
+
+    stamp_ns: int
+    index: np.ndarray
+    closure: np.ndarray
+    fold_angle_rad: np.ndarray
+    gauge_pa: np.ndarray
+    fault: np.ndarray
+    status: np.ndarray
+
+    def series(self, name):
+        return {'closure': self.closure, 'pressure_gauge_pa': self.gauge_pa,
+                'fold_angle_rad': self.fold_angle_rad}[name]
 
 
 class FacadeScene:
-    """Logs one facade to a Rerun recording; feed it messages, call :meth:`flush` often.
+    """Logs one facade to a Rerun recording; feed it panel states, call :meth:`flush` often.
 
-    ``recording`` is an ``rr.RecordingStream`` with its sinks set. Updates are collected per
-    panel and written by :meth:`flush`, which logs only panels whose fold angle or colour
-    changed: at any message rate the work per flush is bounded by the panel count.
-    With ``every_state`` (offline conversion, where time is no object) a fold angle that
-    would replace one not yet logged flushes first, so no state is merged away.
+    ``recording`` is an ``rr.RecordingStream`` with its sinks set. Inputs are queued; a flush
+    applies them, rebuilds the meshes of the panels that moved (one vectorised ``fold_mesh``),
+    and logs at most one facade mesh, one column batch per series and one for the events. Live,
+    a flush shows the newest state of every panel (states between two flushes are merged in
+    the mesh, never in the series). With ``every_state`` (offline conversion, where time is no
+    object) a flush logs one mesh per distinct stamp it holds, in stamp order, so no state is
+    merged away.
     """
 
     def __init__(self, facade, recording, color_by='closure', min_change_rad=1e-3,
-                 every_state=False):
+                 every_state=False, topology=None):
         if color_by not in COLOR_MODES:
             raise ValueError(f'color_by must be one of {", ".join(COLOR_MODES)}, '
                              f'got {color_by!r}')
@@ -115,51 +226,72 @@ class FacadeScene:
         self.facade, self.recording = facade, recording
         self.color_by, self.min_change_rad = color_by, float(min_change_rad)
         self.every_state = every_state
-        self.index = {panel_id: i for i, panel_id in enumerate(facade.panel_ids)}
+        count = len(facade)
+        self.topology = topology or facade_topology(count)
+        self.panel_ids = list(facade.panel_ids)
+        rows, columns = panel_states.id_numbers(self.panel_ids)
+        self._lookup = np.full((int(rows.max()) + 1, int(columns.max()) + 1), -1, np.intp)
+        self._lookup[rows, columns] = np.arange(count)
         self.model = FoldModel(PanelBatch.from_panels(facade.panels))
         self.positions_enu = facade.origin_m @ facade.facade_to_enu.T
         """(N, 3) panel origins in the site ENU frame [m]."""
-        count = len(facade)
-        self.angle_limits_rad = (self.model.fold_angle_from_closure(np.zeros(count)),
-                                 self.model.fold_angle_from_closure(np.ones(count)))
-        self.fold_angle_rad = self.angle_limits_rad[0].copy()
+        self._rotation_t = np.ascontiguousarray(
+            np.transpose(facade.panel_to_enu, (0, 2, 1)), dtype=np.float32)
+        self._origin = self.positions_enu.astype(np.float32)[:, None, :]
+        self.angle_limits_rad = (self.model.open_fold_angle_rad,
+                                 self.model.closed_fold_angle_rad)
+        self._sag_limit_m = elastica.sag_from_k(elastica.K_MAX, self.model.batch.length_m)
+        # The panel state as the scene last applied it.
+        self.seen = np.zeros(count, dtype=bool)
         self.stamp_ns = np.zeros(count, dtype=np.int64)
-        self.touched_ns = np.zeros(count, dtype=np.int64)
-        """Stamp of each panel's newest input: when its colour changes [ns]."""
-        self.logged_angle_rad = np.full(count, np.nan)
-        self.gauge_pa = np.zeros(count)
+        self.fold_angle_rad = self.angle_limits_rad[0].copy()
         self.closure = np.zeros(count)
-        self.fault = [''] * count
-        self.logged_colour = [None] * count
-        self._dirty = set()
-        self._series = {name: [[] for _ in range(count)] for name in SERIES}
+        self.gauge_pa = np.full(count, np.nan)
+        self.fault = np.zeros(count, dtype=np.int16)
+        self.status = np.zeros(count, dtype=np.int16)
+        self._touched = np.zeros(count, dtype=bool)
+        # What the recording shows: every panel meshed, at the open state until it is seen.
+        self.logged_angle_rad = np.full(count, np.nan)
+        self.vertices, self.normals = self._world_mesh(np.arange(count), self.model.open_k)
+        self.logged_colour = np.zeros(count, dtype=np.uint32)
+        self._positions_logged = False
+        self._colours_logged = False
+        # Inputs not yet flushed, and what the series and events carry between flushes.
+        self._pending = []
+        self._carry = {name: np.full(count, np.nan) for name in SERIES}
+        self._event_codes = (np.full(count, -1, np.int16), np.full(count, -1, np.int16))
         self._events = []
-        self._sun = None
+        self._suns = []
         self._sun_logged_ns = None
         self.counts = SceneCounts()
         self.newest_stamp_ns = 0
 
+    def __len__(self):
+        return len(self.panel_ids)
+
     # -- static content ---------------------------------------------------------------------
 
     def log_static(self):
-        """Log the frame convention, the surface, the panel poses and the mesh faces."""
-        rec = self.recording
+        """Log the frame convention, the surface, the panel frames, faces and series names."""
+        rec, count = self.recording, len(self)
         rec.log('/', rr.ViewCoordinates.RIGHT_HAND_Z_UP, static=True)
-        positions = self.positions_enu
-        rotations = self.facade.panel_to_enu
-        faces = fold_mesh(self.model.batch, np.zeros(len(self.facade))).faces.astype(np.uint32)
-        for panel_id, i in self.index.items():
-            rec.log(f'/facade/panels/{panel_id}',
-                    rr.Transform3D(translation=positions[i], mat3x3=rotations[i]), static=True)
-            rec.log(f'/facade/panels/{panel_id}/mesh',
-                    rr.Mesh3D.from_fields(triangle_indices=faces), static=True)
-            for name in SERIES:
-                rec.log(f'/metrics/{name}/{panel_id}', rr.SeriesLines(names=panel_id),
-                        static=True)
+        size = self.topology.vertex_count
+        faces = (self.topology.faces[None].astype(np.uint32)
+                 + (size * np.arange(count, dtype=np.uint32))[:, None, None])
+        rec.log(PANELS, rr.Mesh3D.from_fields(triangle_indices=faces.reshape(-1, 3)),
+                static=True)
+        rec.log(PANELS, rr.AnyValues(panel_id=self.panel_ids, vertices_per_panel=[size]),
+                static=True)
+        rec.log(PANEL_FRAMES, rr.Points3D(self.positions_enu, labels=self.panel_ids,
+                                          radii=0.02, show_labels=False),
+                rr.AnyValues(panel_to_enu=self.facade.panel_to_enu.reshape(-1)), static=True)
+        for name in SERIES:
+            rec.log(f'/metrics/{name}', rr.SeriesLines(names=self.panel_ids), static=True)
+        rec.log(CLOSURE_MEAN, rr.SeriesLines(names=list(CLOSURE_BAND), colors=_BAND_COLOURS,
+                                             widths=[2.0, 1.0, 1.0]), static=True)
         vertices, triangles = self.surface_facets()
-        rec.log('/facade/surface', rr.Mesh3D(vertex_positions=vertices,
-                                             triangle_indices=triangles,
-                                             albedo_factor=_SURFACE_RGBA), static=True)
+        rec.log(SURFACE, rr.Mesh3D(vertex_positions=vertices, triangle_indices=triangles,
+                                   albedo_factor=_SURFACE_RGBA), static=True)
 
     def surface_facets(self, depth_m=0.05):
         """One quad per patch, ``depth_m`` behind the panels: (4N, 3) vertices, (2N, 3) faces."""
@@ -176,177 +308,263 @@ class FacadeScene:
 
     # -- inputs -----------------------------------------------------------------------------
 
-    def _panel(self, panel_id, value):
-        i = self.index.get(panel_id)
-        if i is None or not math.isfinite(value):
-            self.counts.rejected += 1
-            return None
-        return i
+    def panel_indices(self, table):
+        """Facade index of each point of a panel_states table; -1 for an unknown panel id."""
+        rows = table['row'].astype(np.intp)
+        columns = table['column'].astype(np.intp)
+        inside = (rows < self._lookup.shape[0]) & (columns < self._lookup.shape[1])
+        index = np.full(len(table), -1, dtype=np.intp)
+        index[inside] = self._lookup[rows[inside], columns[inside]]
+        return index
 
-    def fold_angle(self, panel_id, stamp_ns, fold_angle_rad):
-        """Take a panel's fold angle (``joint_states``) at ``stamp_ns`` [ns of ROS time]."""
-        i = self._panel(panel_id, fold_angle_rad)
-        if i is not None:
-            if self.every_state and i in self._dirty and self.stamp_ns[i] != stamp_ns:
-                self.flush()
-            self.fold_angle_rad[i], self.stamp_ns[i] = fold_angle_rad, stamp_ns
-            self._touch(i, stamp_ns)
-            self._sample('fold_angle_rad', i, stamp_ns, fold_angle_rad)
+    def panel_states(self, stamp_ns, table):
+        """Take one panel_states message: ``table`` from :func:`panel_states.unpack`.
 
-    def pressure(self, panel_id, stamp_ns, pressure_pa):
-        """Take a panel's absolute cushion pressure [Pa] (``FluidPressure``)."""
-        i = self._panel(panel_id, pressure_pa)
-        if i is not None:
-            self.gauge_pa[i] = pressure_pa - ATMOSPHERIC_PRESSURE_PA
-            self._sample('pressure_gauge_pa', i, stamp_ns, self.gauge_pa[i])
-            if self.color_by == 'pressure':
-                self._touch(i, stamp_ns)
-
-    def closure_value(self, panel_id, stamp_ns, closure):
-        """Take a panel's closure [-] (``closure``; unstamped, so the receive time)."""
-        i = self._panel(panel_id, closure)
-        if i is not None:
-            self.closure[i] = closure
-            self._sample('closure', i, stamp_ns, closure)
-            if self.color_by == 'closure':
-                self._touch(i, stamp_ns)
-
-    def status(self, panel_id, stamp_ns, text, is_fault=False):
-        """Take a panel's latched ``status`` or ``fault`` text; faults turn the panel red."""
-        i = self.index.get(panel_id)
-        if i is None:
-            self.counts.rejected += 1
-            return
-        if is_fault:
-            self.fault[i] = '' if text == contract.NO_FAULT else text
-            self._touch(i, stamp_ns)
-        level = 'ERROR' if is_fault and text != contract.NO_FAULT else 'INFO'
-        label = 'fault' if is_fault else 'status'
-        self._events.append((stamp_ns, f'{panel_id} {label}: {text}', level))
+        ``stamp_ns`` is its header stamp [ns of ROS time]. Points of unknown panels and points
+        with a non-finite closure or fold angle or an infinite pressure are counted in
+        ``rejected`` and ignored; a NaN pressure is "no reading" (the gauge series shows NaN).
+        Returns the number of panel states taken.
+        """
+        index = self.panel_indices(table)
+        closure = table['closure'].astype(np.float64)
+        angle = table['fold_angle_rad'].astype(np.float64)
+        pressure = table['pressure_pa'].astype(np.float64)
+        valid = ((index >= 0) & np.isfinite(closure) & np.isfinite(angle)
+                 & ~np.isinf(pressure))
+        self.counts.rejected += int(len(table) - np.count_nonzero(valid))
+        if not valid.any():
+            return 0
+        update = _Update(int(stamp_ns), index[valid], closure[valid], angle[valid],
+                         pressure[valid] - ATMOSPHERIC_PRESSURE_PA,
+                         table['fault'][valid].astype(np.int16),
+                         table['status'][valid].astype(np.int16))
+        self._note_events(update)
+        self._pending.append(update)
+        if update.stamp_ns > 0:  # before the first /clock, a sim-time publisher stamps 0
+            self.newest_stamp_ns = max(self.newest_stamp_ns, update.stamp_ns)
+        self.counts.states_taken += len(update.index)
+        return len(update.index)
 
     def sun(self, stamp_ns, vector_enu):
-        """Take the unit vector toward the sun in the site ENU frame."""
+        """Take the unit vector toward the sun in the site ENU frame.
+
+        Live, a flush shows the newest; with ``every_state``, every one.
+        """
         vector = np.asarray(vector_enu, dtype=float)
         if vector.shape != (3,) or not np.all(np.isfinite(vector)):
             self.counts.rejected += 1
             return
-        self._sun = (stamp_ns, vector)
+        if not self.every_state:
+            self._suns.clear()
+        self._suns.append((int(stamp_ns), vector))
 
-    def _touch(self, i, stamp_ns):
-        self.touched_ns[i] = max(self.touched_ns[i], stamp_ns)
-        self._dirty.add(i)
+    def _note_events(self, update):
+        """Queue a text for every panel whose fault or status code differs from its last one.
 
-    def _sample(self, name, i, stamp_ns, value):
-        if stamp_ns > 0:  # before the first /clock, a sim-time receiver stamps 0
-            self._series[name][i].append((stamp_ns, float(value)))
-            self.newest_stamp_ns = max(self.newest_stamp_ns, stamp_ns)
-
-    def _at(self, stamp_ns):
-        self.recording.set_time(TIMELINE, timestamp=np.datetime64(int(stamp_ns), 'ns'))
+        A panel's first state sets its codes; it is an event only when it reports a fault.
+        (Each panel's states come from one process, in stamp order, so arrival order is its
+        state order.)
+        """
+        faults, statuses = self._event_codes
+        index = update.index
+        before_fault, before_status = faults[index], statuses[index]
+        fault_changed = ((update.fault != before_fault)
+                         & ((before_fault >= 0) | (update.fault != 0)))
+        status_changed = (update.status != before_status) & (before_status >= 0)
+        for j in np.flatnonzero(fault_changed):
+            code = int(update.fault[j])
+            word = contract.FAULTS[code] if code < len(contract.FAULTS) else 'unknown'
+            self._events.append((update.stamp_ns, f'{self.panel_ids[index[j]]} fault: {word}',
+                                 'INFO' if code == 0 else 'ERROR'))
+        for j in np.flatnonzero(status_changed):
+            code = int(update.status[j])
+            word = contract.STATUSES[code] if code < len(contract.STATUSES) else 'unknown'
+            self._events.append((update.stamp_ns,
+                                 f'{self.panel_ids[index[j]]} status: {word}', 'INFO'))
+        faults[index], statuses[index] = update.fault, update.status
 
     # -- output -----------------------------------------------------------------------------
 
     def flush(self):
-        """Log what changed since the last flush; return the number of meshes logged."""
-        self._flush_series()
-        self._flush_sun()
+        """Log what changed since the last flush; return the number of panels re-meshed."""
+        pending, self._pending = self._pending, []
+        self._flush_series(pending)
+        remeshed = 0
+        for stamp_ns, updates in self._groups(pending):
+            for update in updates:
+                self._apply(update)
+            remeshed += self._log_mesh(stamp_ns)
         self._flush_events()
-        if not self._dirty or self.newest_stamp_ns <= 0:
+        self._flush_sun()
+        return remeshed
+
+    def _groups(self, pending):
+        if not pending:
+            return []
+        if not self.every_state:
+            return [(max(update.stamp_ns for update in pending), pending)]
+        groups = {}
+        for update in sorted(pending, key=lambda update: update.stamp_ns):
+            groups.setdefault(update.stamp_ns, []).append(update)
+        return list(groups.items())
+
+    def _apply(self, update):
+        index = update.index
+        self.fold_angle_rad[index] = update.fold_angle_rad
+        self.closure[index] = update.closure
+        self.gauge_pa[index] = update.gauge_pa
+        self.fault[index], self.status[index] = update.fault, update.status
+        self.stamp_ns[index] = update.stamp_ns
+        self.seen[index] = True
+        self._touched[index] = True
+
+    def _log_mesh(self, stamp_ns):
+        """Log the facade mesh at ``stamp_ns`` where panels moved or colours changed."""
+        if stamp_ns <= 0:  # nothing is placed before the clock runs; the next flush shows it
             return 0
-        dirty = np.array(sorted(self._dirty))
-        self._dirty.clear()
-        stamped = dirty[self.stamp_ns[dirty] > 0]  # a mesh needs a fold angle and its stamp
-        moved = stamped[~(np.abs(self.fold_angle_rad[stamped] - self.logged_angle_rad[stamped])
-                          <= self.min_change_rad)]
-        self.counts.meshes_unchanged += len(stamped) - len(moved)
-        if len(moved):
-            self._log_meshes(moved)
-        for i in dirty:
-            self._log_colour(i)
-        return len(moved)
+        moved = self.seen & ~(np.abs(self.fold_angle_rad - self.logged_angle_rad)
+                              <= self.min_change_rad)
+        self.counts.panels_unchanged += int(np.count_nonzero(self._touched & ~moved))
+        self._touched[:] = False
+        fields = {}
+        panels = np.flatnonzero(moved)
+        if len(panels):
+            angle = np.clip(self.fold_angle_rad[panels], self.angle_limits_rad[0][panels],
+                            self.angle_limits_rad[1][panels])
+            batch = self._batch(panels)
+            # FoldModel's map from fold angle to elastica modulus, for these panels only.
+            sag = np.minimum(sag_for_apex_fold_angle(batch, angle), self._sag_limit_m[panels])
+            vertices, normals = self._world_mesh(panels, k_from_sag(sag, batch.length_m),
+                                                 batch)
+            self.vertices[panels], self.normals[panels] = vertices, normals
+            self.logged_angle_rad[panels] = self.fold_angle_rad[panels]
+            self.counts.panels_remeshed += len(panels)
+        if len(panels) or not self._positions_logged:
+            # Copies: the SDK keeps a reference to the arrays until it has written them.
+            fields['vertex_positions'] = self.vertices.reshape(-1, 3).copy()
+            fields['vertex_normals'] = self.normals.reshape(-1, 3).copy()
+            self._positions_logged = True
+            self.counts.meshes_logged += 1
+        colours = self.panel_colours()
+        if not self._colours_logged or np.any(colours != self.logged_colour):
+            fields['vertex_colors'] = np.repeat(colours, self.topology.vertex_count)
+            self.logged_colour = colours
+            self._colours_logged = True
+            self.counts.colours_logged += 1
+        if fields:
+            self._at(stamp_ns)
+            self.recording.log(PANELS, rr.Mesh3D.from_fields(**fields))
+        return len(panels)
 
-    def _log_meshes(self, panels):
-        # The loops interpolate a table, so a reported angle can pass a limit by a rounding.
-        closure = self.model.closure_from_fold_angle(np.clip(self.fold_angle_rad,
-                                                             *self.angle_limits_rad))
-        k = self.model.state_from_closure(closure).elastica_k
-        mesh = fold_mesh(self.model.batch.take(panels), k[panels], dtype=np.float32)
-        for row, i in enumerate(panels):
-            self._at(self.stamp_ns[i])
-            self.recording.log(f'/facade/panels/{self.facade.panel_ids[i]}/mesh',
-                               rr.Mesh3D.from_fields(vertex_positions=mesh.vertices[row],
-                                                     vertex_normals=mesh.normals[row]))
-            self.logged_angle_rad[i] = self.fold_angle_rad[i]
-        self.counts.meshes_logged += len(panels)
+    def _batch(self, panels):
+        return self.model.batch if len(panels) == len(self) else self.model.batch.take(panels)
 
-    def panel_colour(self, i):
-        """RGBA of panel ``i`` now: red on a fault, else its closure or pressure on the ramp."""
-        if self.fault[i]:
-            return FAULT_RGBA
+    def _world_mesh(self, panels, k, batch=None):
+        """(M, V, 3) float32 world vertices and normals of ``panels`` at moduli ``k``."""
+        batch = self._batch(panels) if batch is None else batch
+        mesh = fold_mesh(batch, k, topology=self.topology, dtype=np.float32)
+        rotation_t = self._rotation_t[panels]
+        vertices = np.matmul(mesh.vertices, rotation_t)
+        vertices += self._origin[panels]
+        return vertices, np.matmul(mesh.normals, rotation_t)
+
+    def panel_colours(self):
+        """Packed RGBA of every panel now: red on a fault, else closure or pressure on the ramp.
+
+        Grey for a panel with no state yet, and (coloured by pressure) with no reading.
+        """
         if self.color_by == 'pressure':
-            return ramp_colour(self.gauge_pa[i] / PRESSURE_FULL_SCALE_PA)
-        return ramp_colour(self.closure[i])
+            fraction, known = self.gauge_pa / PRESSURE_FULL_SCALE_PA, np.isfinite(self.gauge_pa)
+        else:
+            fraction, known = self.closure, np.ones(len(self), dtype=bool)
+        rgba = ramp_colours(np.where(known, fraction, 0.0))
+        rgba[~(known & self.seen)] = NO_STATE_RGBA
+        rgba[self.seen & (self.fault != 0)] = FAULT_RGBA
+        return packed(rgba)
 
-    def _log_colour(self, i):
-        colour = self.panel_colour(i)
-        if colour == self.logged_colour[i]:
+    def _flush_series(self, pending):
+        """One row per distinct stamp: every panel's value, its last one if not in the row."""
+        carry = self._carry
+        stamped = sorted((u for u in pending if u.stamp_ns > 0), key=lambda u: u.stamp_ns)
+        for update in pending:
+            if update.stamp_ns <= 0:
+                for name in SERIES:
+                    carry[name][update.index] = update.series(name)
+        if not stamped:
             return
-        self._at(self.touched_ns[i] if self.touched_ns[i] > 0 else self.newest_stamp_ns)
-        self.recording.log(f'/facade/panels/{self.facade.panel_ids[i]}/mesh',
-                           rr.Mesh3D.from_fields(albedo_factor=colour))
-        self.logged_colour[i] = colour
-        self.counts.colours_logged += 1
-
-    def _flush_series(self):
-        for name, per_panel in self._series.items():
-            for i, samples in enumerate(per_panel):
-                if not samples:
-                    continue
-                stamps = np.array([s for s, _ in samples], dtype='datetime64[ns]')
-                values = np.array([v for _, v in samples])
-                self.recording.send_columns(
-                    f'/metrics/{name}/{self.facade.panel_ids[i]}',
-                    indexes=[rr.TimeColumn(TIMELINE, timestamp=stamps)],
-                    columns=rr.Scalars.columns(scalars=values))
-                self.counts.samples_logged += len(samples)
-                samples.clear()
+        stamps = np.unique([update.stamp_ns for update in stamped])
+        rows = {name: np.empty((len(stamps), len(self))) for name in SERIES}
+        row = 0
+        for j, update in enumerate(stamped):
+            for name in SERIES:
+                carry[name][update.index] = update.series(name)
+            if j + 1 == len(stamped) or stamped[j + 1].stamp_ns != update.stamp_ns:
+                for name in SERIES:
+                    rows[name][row] = carry[name]
+                row += 1
+        times = [rr.TimeColumn(TIMELINE, timestamp=stamps.astype('datetime64[ns]'))]
+        lengths = np.full(len(stamps), len(self))
+        for name in SERIES:
+            self.recording.send_columns(
+                f'/metrics/{name}', indexes=times,
+                columns=rr.Scalars.columns(scalars=rows[name].ravel()).partition(lengths))
+        self.counts.samples_logged += len(SERIES) * rows['closure'].size
+        closure = rows['closure']
+        finite = np.isfinite(closure)
+        seen = finite.sum(axis=1)
+        with np.errstate(invalid='ignore', divide='ignore'):
+            mean = np.where(finite, closure, 0.0).sum(axis=1) / seen
+        low = np.where(finite, closure, np.inf).min(axis=1)
+        high = np.where(finite, closure, -np.inf).max(axis=1)
+        band = np.stack([mean, low, high], axis=1)
+        band[seen == 0] = np.nan
+        self.recording.send_columns(
+            CLOSURE_MEAN, indexes=times,
+            columns=rr.Scalars.columns(scalars=band.ravel()).partition(
+                np.full(len(stamps), len(CLOSURE_BAND))))
 
     def _flush_events(self):
-        # Latched texts can arrive before the clock runs: place them at the first stamp seen.
-        if self.newest_stamp_ns <= 0:
+        # States can come before the clock runs: place their events at the first stamp seen.
+        if not self._events or self.newest_stamp_ns <= 0:
             return
-        for stamp_ns, text, level in self._events:
-            self._at(stamp_ns if stamp_ns > 0 else self.newest_stamp_ns)
-            self.recording.log('/facade/events', rr.TextLog(text, level=level))
+        stamps = np.array([s if s > 0 else self.newest_stamp_ns for s, _, _ in self._events],
+                          dtype='datetime64[ns]')
+        self.recording.send_columns(
+            EVENTS, indexes=[rr.TimeColumn(TIMELINE, timestamp=stamps)],
+            columns=rr.TextLog.columns(text=[text for _, text, _ in self._events],
+                                       level=[level for _, _, level in self._events]))
         self.counts.events_logged += len(self._events)
-        self._events.clear()
+        self._events = []
 
     def _flush_sun(self):
-        if self._sun is None or self._sun[0] == self._sun_logged_ns:
-            return
-        stamp_ns, vector = self._sun
-        self._at(stamp_ns)
-        if vector[2] <= 0.0:
-            self.recording.log('/sun', rr.Clear(recursive=False))
-        else:
-            centre = self.positions_enu.mean(axis=0)
-            self.recording.log('/sun', rr.Arrows3D(
-                origins=[centre + SUN_ARROW_M * vector], vectors=[-SUN_ARROW_M * vector],
-                colors=[(255, 196, 0)], labels=['sun']))
-        self._sun_logged_ns = stamp_ns
+        suns, self._suns = self._suns, []
+        centre = self.positions_enu.mean(axis=0)
+        for stamp_ns, vector in suns:
+            if stamp_ns == self._sun_logged_ns:
+                continue
+            self._at(stamp_ns)
+            if vector[2] <= 0.0:
+                self.recording.log(SUN, rr.Clear(recursive=False))
+            else:
+                self.recording.log(SUN, rr.Arrows3D(
+                    origins=[centre + SUN_ARROW_M * vector], vectors=[-SUN_ARROW_M * vector],
+                    colors=[(255, 196, 0)], labels=['sun']))
+            self._sun_logged_ns = stamp_ns
+
+    def _at(self, stamp_ns):
+        self.recording.set_time(TIMELINE, timestamp=np.datetime64(int(stamp_ns), 'ns'))
 
 
 # -- topics -> scene ---------------------------------------------------------------------------
 
-#: The panel topics a scene shows.
-PANEL_TOPICS = (contract.JOINT_STATES, contract.PRESSURE, contract.CLOSURE, contract.FAULT,
-                contract.STATUS)
+def scene_topics(facade=None):
+    """Return the contract :class:`~flectofold_ros.contract.Topic` s a scene shows.
 
-
-def scene_topics(facade):
-    """Return the contract :class:`~flectofold_ros.contract.Topic` of all a scene shows."""
-    return [contract.SUN] + [topic.of(panel_id) for panel_id in facade.panel_ids
-                             for topic in PANEL_TOPICS]
+    The facade-level ``panel_states`` (every panel of a process in one message) and the sun;
+    not the per-panel topics, which are published only on change. ``facade`` is accepted for
+    callers that name it; the topics do not depend on it.
+    """
+    return [contract.PANEL_STATES, contract.SUN]
 
 
 def stamp_ns(header):
@@ -354,26 +572,21 @@ def stamp_ns(header):
     return header.stamp.sec * 10**9 + header.stamp.nanosec
 
 
-def feed(scene, topic, message, received_ns):
+def feed(scene, topic, message, received_ns=None):
     """Hand one message of a :func:`scene_topics` topic to ``scene``.
 
-    ``message`` may be an rclpy message or a rosbags one: both have the same fields.
-    ``received_ns`` is the ROS time it arrived (used for unstamped messages).
+    ``message`` may be an rclpy message or a rosbags one: both have the same fields. Both
+    topics are stamped, so ``received_ns`` (the ROS time it arrived) is not needed; it is kept
+    in the signature for the callers. A ``panel_states`` message whose layout is not the
+    contract's counts as one rejected.
     """
-    if topic == contract.SUN.name:
+    if topic == contract.PANEL_STATES.name:
+        try:
+            table = panel_states.unpack(message)
+        except ValueError:
+            scene.counts.rejected += 1
+            return
+        scene.panel_states(stamp_ns(message.header), table)
+    elif topic == contract.SUN.name:
         v = message.vector
         scene.sun(stamp_ns(message.header), (v.x, v.y, v.z))
-        return
-    panel_id, suffix = topic[len(contract.FACADE_NAMESPACE) + 1:].split('/', 1)
-    if suffix == contract.JOINT_STATES.suffix:
-        if len(message.position):
-            scene.fold_angle(panel_id, stamp_ns(message.header), float(message.position[0]))
-        else:
-            scene.counts.rejected += 1
-    elif suffix == contract.PRESSURE.suffix:
-        scene.pressure(panel_id, stamp_ns(message.header), float(message.fluid_pressure))
-    elif suffix == contract.CLOSURE.suffix:
-        scene.closure_value(panel_id, received_ns, float(message.data))
-    elif suffix in (contract.FAULT.suffix, contract.STATUS.suffix):
-        scene.status(panel_id, received_ns, str(message.data),
-                     is_fault=suffix == contract.FAULT.suffix)

@@ -54,7 +54,7 @@ def script(loops, tick_s):
             loops.advance_to(now)
         trace.append((loops.gauge_pa, loops.closure, loops.fold_angle_rad, loops.fault,
                       loops.free_air_used_nl, loops.driver.valve_openings()))
-    samples = [(s.sequence, s.time_s, s.closure, s.fold_angle_rad, s.measured_pa)
+    samples = [(s.sequence, s.time_s, s.closure, s.fold_angle_rad, s.measured_pa, s.active)
                for s in loops.samples]
     return trace, samples, loops.quiet_periods_run
 
@@ -75,6 +75,9 @@ def test_the_compiled_simulation_equals_the_period_by_period_path(tick_s):
         for a, b in zip(c[2:], s[2:]):
             np.testing.assert_array_equal(a, b)
     assert compiled[2] == stepped[2]
+    active = np.array([s[5] for s in compiled[1]])
+    # every panel sent off the start moves; later the panels come to rest, sample by sample
+    assert active[0][1:].all() and active.sum(axis=1).min() < COUNT // 2
     if tick_s > 1.0:
         assert compiled[2] > 0  # quiet spans were run, and alike
     assert compiled[0][-1][3][4] is Fault.SENSOR_STUCK  # a latched fault, held, alike

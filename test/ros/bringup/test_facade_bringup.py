@@ -82,7 +82,7 @@ def test_a_signal_to_the_whole_group_stops_everything_and_keeps_the_outputs(
     assert not children_of(small_facade_file)
     run = (tmp_path / 'out' / 'latest').resolve()  # the outputs of the part that ran are whole
     bag_is_complete(run / 'bag')
-    assert any(e.endswith('/mesh') for e in Rrd(run / 'facade.rrd').entities())
+    assert '/facade/panels' in Rrd(run / 'facade.rrd').entities()
 
 
 def test_ctrl_c_to_the_bringup_alone_stops_its_children_too(small_facade_file, tmp_path):
