@@ -39,8 +39,8 @@ class Monitor(Node):
         self.fault = np.zeros(count, dtype=np.uint8)
         self.status = np.zeros(count, dtype=np.uint8)
         self.counters = {key: np.full(count, np.nan) for key in self.COUNTERS}
-        self.behind_s = np.zeros(count)
-        """Largest lag behind the clock each panel's simulation reported [s]."""
+        self.behind_s = 0.0
+        """Largest lag behind the clock any panel process's simulation reported [s]."""
         self.foreign = 0
         """``panel_states`` messages or points that are not of this facade, ignored."""
         subscription(self, contract.CLOCK, self._on_clock)
@@ -69,13 +69,11 @@ class Monitor(Node):
     def _on_diagnostics(self, message):
         for status in message.status:
             i = self._lookup.get(status.hardware_id)
-            if i is None:
-                continue
             for item in status.values:
-                if item.key in self.COUNTERS:
+                if item.key == contract.DIAGNOSTIC_BEHIND_S:  # a panel process's figure
+                    self.behind_s = max(self.behind_s, _number(item.value))
+                elif i is not None and item.key in self.COUNTERS:
                     self.counters[item.key][i] = _number(item.value)
-                elif item.key == contract.DIAGNOSTIC_BEHIND_S:
-                    self.behind_s[i] = max(self.behind_s[i], _number(item.value))
 
     # -- questions --------------------------------------------------------------------------
 
@@ -125,7 +123,7 @@ class Monitor(Node):
 
     def largest_behind_s(self):
         """Largest lag behind the clock any panel's simulation reported [s]."""
-        return float(self.behind_s.max())
+        return self.behind_s
 
     def tracking_error(self):
         """Largest ``|closure - tracked setpoint|`` over the panels heard, or NaN."""

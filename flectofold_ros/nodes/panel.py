@@ -128,8 +128,13 @@ class PanelNode(Node):
         subscription(self, contract.SETPOINT.of(panel), self._on_setpoint)
         service(self, contract.reset_faults_service(panel), self._on_reset_faults,
                 contract.RESET_FAULTS_TYPE)
-        self._joint_names = contract.flap_joint_names(panel)
-        self._variance = process.loops.driver.circuit.sensor_noise_pa ** 2
+        # One message of each kind, refilled for every state: building them costs more than
+        # sending them.
+        self._pressure_message = FluidPressure(
+            variance=process.loops.driver.circuit.sensor_noise_pa ** 2)
+        self._pressure_message.header.frame_id = panel
+        self._joints_message = JointState(name=contract.flap_joint_names(panel))
+        self._closure_message = Float64()
 
     def _on_setpoint(self, message):
         self.process.offer(self.index, message.data, self.get_logger())
@@ -141,13 +146,15 @@ class PanelNode(Node):
     def publish_state(self, stamp, closure, fold_angle_rad, measured_pa):
         """Publish ``pressure`` (when there is a reading), ``joint_states`` and ``closure``."""
         if math.isfinite(measured_pa):
-            pressure = FluidPressure(fluid_pressure=measured_pa, variance=self._variance)
-            pressure.header.stamp, pressure.header.frame_id = stamp, self.panel_id
+            pressure = self._pressure_message
+            pressure.fluid_pressure, pressure.header.stamp = measured_pa, stamp
             self._pressure.publish(pressure)
-        joints = JointState(name=self._joint_names, position=[fold_angle_rad, fold_angle_rad])
-        joints.header.stamp = stamp
+        joints = self._joints_message
+        joints.header.stamp, joints.position = stamp, [fold_angle_rad, fold_angle_rad]
         self._joints.publish(joints)
-        self._closure.publish(Float64(data=closure))
+        closure_message = self._closure_message
+        closure_message.data = closure
+        self._closure.publish(closure_message)
 
     def publish_fault(self, word):
         """Publish the latched ``fault``."""
@@ -384,10 +391,6 @@ class PanelProcess:
             contract.DIAGNOSTIC_SETPOINTS_REJECTED: guard.rejected,
             'last_rejection': guard.last_rejection,
             contract.DIAGNOSTIC_FREE_AIR_NL: float(loops.free_air_used_nl[index]),
-            'sim_time_skipped_s': loops.skipped_s,
-            contract.DIAGNOSTIC_STATES_SKIPPED: self.states_skipped,
-            'loop_time_s': loops.time_s if loops.time_s is not None else math.nan,
-            contract.DIAGNOSTIC_BEHIND_S: loops.behind_s,
         }
         return diagnostics.status(node, level, 'pressure loop', node.panel_id, message, figures)
 
@@ -404,6 +407,8 @@ class PanelProcess:
             'tick_cpu_s': self._tick_cpu_s,
             'states_published': self.states_published,
             contract.DIAGNOSTIC_STATES_SKIPPED: self.states_skipped,
+            'sim_time_skipped_s': self.loops.skipped_s,
+            'loop_time_s': self.loops.time_s if self.loops.time_s is not None else math.nan,
             contract.DIAGNOSTIC_BEHIND_S: self.loops.behind_s,
         }
         return diagnostics.status(self.settings, diagnostics.OK, 'panel process',
