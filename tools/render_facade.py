@@ -1,7 +1,7 @@
 """Render PNG pictures of the facade at chosen times of a recorded day, headless.
 
-The input is a Rerun ``.rrd`` file written by the bridge (timeline ``ros_time``, meshes under
-``/facade/panels/<id>/mesh``). The script starts the native Rerun viewer headless on 127.0.0.1,
+The input is a Rerun ``.rrd`` file written by the bridge (timeline ``ros_time``, the folded
+panels as one mesh, ``/facade/panels``). The script starts the native Rerun viewer headless on 127.0.0.1,
 opens the file, moves the time cursor to each requested local clock time, waits until the 3D view
 has stopped changing, and writes ``<out>/facade_<HHMM>.png``.
 
