@@ -199,7 +199,6 @@ class PanelProcess:
         self._rejected_since_report = np.zeros(count, dtype=np.int64)
         self.states_skipped = 0
         self.states_published = 0
-        self.panel_states_published = 0
         self._tick_intervals_s, self._last_tick_s = [], None
         self._tick_cpu_s = 0.0
         self._table = panel_states.new_table(count)
@@ -298,37 +297,41 @@ class PanelProcess:
 
     def _publish_samples(self):
         # The loop keeps its state at each publish instant, also while it catches up a clock
-        # jump in one call: publish those, each with its own stamp; of more than
-        # MAX_STATES_PER_TICK (a loop racing to catch up), the newest, counting the rest.
+        # jump in one call: the facade-level topics carry each, with its own stamp (of more
+        # than MAX_STATES_PER_TICK, a loop racing to catch up, the newest, counting the rest);
+        # the panels' own topics the newest only, so that a late tick does not publish a
+        # thousand panels' states several times over and fall later still.
         samples = self.loops.samples_since(self._last_sequence, MAX_STATES_PER_TICK)
         if samples:
             self.states_skipped += samples[0].sequence - self._last_sequence - 1
+        due = []
         for sample in samples:
             self._last_sequence = sample.sequence
             if self._decimator.due(sample.time_s):
-                self._publish_state(sample)
+                self._publish_facade_state(_stamp(sample.time_s), sample)
+                due.append(sample)
+        if due:
+            self._publish_panel_states(due[-1], np.logical_or.reduce([s.active for s in due]))
 
-    def _publish_state(self, sample):
-        stamp = Time(nanoseconds=round(sample.time_s * 1e9)).to_msg()
-        self._publish_facade_state(stamp, sample)
-        due = self._panels_due(sample)
-        for index in np.flatnonzero(due).tolist():
+    def _publish_panel_states(self, sample, active):
+        stamp = _stamp(sample.time_s)
+        for index in np.flatnonzero(self._panels_due(sample, active)).tolist():
             self.panels[index].publish_state(stamp, float(sample.closure[index]),
                                              float(sample.fold_angle_rad[index]),
                                              float(sample.measured_pa[index]))
-        self.states_published += 1
 
-    def _panels_due(self, sample):
+    def _panels_due(self, sample, active):
         """Which panels publish their own state topics for ``sample``.
 
-        While the loop moves a panel, and for the first state after, every state; at rest, a
-        heartbeat; and whenever its sensor starts or stops giving a reading.
+        While the loop moves a panel (``active``: in any state since the last tick), and for
+        the first state after, every state; at rest, a heartbeat; and whenever its sensor
+        starts or stops giving a reading.
         """
         reading = np.isfinite(sample.measured_pa)
-        due = sample.active | self._was_active | (reading != self._published_reading) | \
+        due = active | self._was_active | (reading != self._published_reading) | \
             (sample.time_s - self._published_s >= self.heartbeat_s - self._slack_s)
         first = ~np.isfinite(self._published_s)
-        self._was_active = sample.active.copy()
+        self._was_active = active
         self._published_s[due] = sample.time_s
         self._published_reading[due] = reading[due]
         if np.any(first):
@@ -349,7 +352,7 @@ class PanelProcess:
         joints.header.stamp = stamp
         joints.position = array.array('d', np.repeat(sample.fold_angle_rad, 2).tobytes())
         self._joints_publisher.publish(joints)
-        self.panel_states_published += 1
+        self.states_published += 1
 
     # -- diagnostics ------------------------------------------------------------------------
 
@@ -418,6 +421,10 @@ class PanelProcess:
     def close(self):
         """Shut the valves: the panels keep their air (a held position) until vented."""
         self.loops.close()
+
+
+def _stamp(time_s):
+    return Time(nanoseconds=round(time_s * 1e9)).to_msg()
 
 
 def build_loops(node, panel_ids, seed=0):
