@@ -1,9 +1,9 @@
 """Render PNG pictures of the facade at chosen times of a recorded day, headless.
 
 The input is a Rerun ``.rrd`` file written by the bridge (timeline ``ros_time``, the folded
-panels as one mesh, ``/facade/panels``). The script starts the native Rerun viewer headless on 127.0.0.1,
-opens the file, moves the time cursor to each requested local clock time, waits until the 3D view
-has stopped changing, and writes ``<out>/facade_<HHMM>.png``.
+panels as one mesh, ``/facade/panels``). The script starts the native Rerun viewer headless on
+127.0.0.1, opens the file, moves the time cursor to each requested local clock time, waits until
+the 3D view has stopped changing, and writes ``<out>/facade_<HHMM>.png``.
 
 Requirements:
 
