@@ -30,7 +30,7 @@ from std_msgs.msg import Float64, String
 from flectofold_model.control import (compile_kernels, ControllerParameters, facade_loops, Fault,
                                       PublishDecimator, SafeAction, SafeBehaviour, SetpointGuard,
                                       SetpointState)
-from flectofold_model.control.panel_loops import panel_indices
+from flectofold_model.control.panel_loops import LoopSample, panel_indices
 from flectofold_model.facade import DEFAULT_FACADE, load_facade
 from flectofold_ros import contract, diagnostics, panel_states
 from flectofold_ros.interfaces import publisher, service, subscription
@@ -277,6 +277,8 @@ class PanelProcess:
                 f'the clock jumped: {advance.skipped_s:.0f} s were not simulated (the plant '
                 f'held; {self.loops.skipped_s:.0f} s in all)', throttle_duration_sec=5.0)
         self._publish_latched(self._status)
+        if not self.states_published and not advance.periods:
+            self._publish_first_state(now)
         self._publish_samples()
         self._tick_cpu_s += time.process_time() - started
 
@@ -312,6 +314,15 @@ class PanelProcess:
                 due.append(sample)
         if due:
             self._publish_panel_states(due[-1], np.logical_or.reduce([s.active for s in due]))
+
+    def _publish_first_state(self, now_s):
+        # As soon as the process knows the time, also while a bringup holds its clock at the
+        # start of the day (then the loop runs no period and keeps no state): the panels are up.
+        closure, fold_angle = self.loops._current_feedback()
+        sample = LoopSample(0, now_s, closure, fold_angle, self.loops.measured_pa,
+                            self.loops.controller.active)
+        self._publish_facade_state(_stamp(now_s), sample)
+        self._publish_panel_states(sample, sample.active)
 
     def _publish_panel_states(self, sample, active):
         stamp = _stamp(sample.time_s)
