@@ -71,8 +71,15 @@ def index_lookup(panel_ids):
 
 
 def indices(table, lookup):
-    """Return each point's index by an :func:`index_lookup` (-1: a panel it does not know)."""
-    return lookup[100 * table['row'].astype(np.int64) + table['column']]
+    """Return each point's index by an :func:`index_lookup` (-1: a panel it does not know).
+
+    A row or column beyond two digits (a foreign or hostile cloud) is a panel it does not know.
+    """
+    rows, columns = table['row'].astype(np.int64), table['column'].astype(np.int64)
+    inside = (rows < 100) & (columns < 100)
+    index = np.full(len(table), -1, dtype=np.int64)
+    index[inside] = lookup[100 * rows[inside] + columns[inside]]
+    return index
 
 
 def panel_ids(table):

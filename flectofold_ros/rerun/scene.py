@@ -229,9 +229,7 @@ class FacadeScene:
         count = len(facade)
         self.topology = topology or facade_topology(count)
         self.panel_ids = list(facade.panel_ids)
-        rows, columns = panel_states.id_numbers(self.panel_ids)
-        self._lookup = np.full((int(rows.max()) + 1, int(columns.max()) + 1), -1, np.intp)
-        self._lookup[rows, columns] = np.arange(count)
+        self._lookup = panel_states.index_lookup(self.panel_ids)
         self.model = FoldModel(PanelBatch.from_panels(facade.panels))
         self.positions_enu = facade.origin_m @ facade.facade_to_enu.T
         """(N, 3) panel origins in the site ENU frame [m]."""
@@ -310,12 +308,7 @@ class FacadeScene:
 
     def panel_indices(self, table):
         """Facade index of each point of a panel_states table; -1 for an unknown panel id."""
-        rows = table['row'].astype(np.intp)
-        columns = table['column'].astype(np.intp)
-        inside = (rows < self._lookup.shape[0]) & (columns < self._lookup.shape[1])
-        index = np.full(len(table), -1, dtype=np.intp)
-        index[inside] = self._lookup[rows[inside], columns[inside]]
-        return index
+        return panel_states.indices(table, self._lookup)
 
     def panel_states(self, stamp_ns, table):
         """Take one panel_states message: ``table`` from :func:`panel_states.unpack`.

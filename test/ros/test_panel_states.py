@@ -74,6 +74,8 @@ def test_unknown_codes_read_as_unknown(table):
 def test_indices_map_ids_and_mark_strangers(table):
     lookup = panel_states.index_lookup(['r24c39', 'r00c01'])
     assert panel_states.indices(table, lookup).tolist() == [-1, 1, -1, 0]
+    table['row'][0], table['column'][2] = 65535, 100  # a hostile cloud: no such ids
+    assert panel_states.indices(table, lookup).tolist() == [-1, 1, -1, 0]
 
 
 @pytest.mark.parametrize('bad', ['r1c1', 'panel', 'r00c001'])
