@@ -55,6 +55,8 @@ class StopSignals:
         self._previous = {}
 
     def __enter__(self):
+        self._previous_unraisable_hook = sys.unraisablehook
+        sys.unraisablehook = self._unraisable
         # A signal the parent ignores stays ignored (a shell's background job ignores SIGINT,
         # as does a process under nohup), as Python itself does for SIGINT.
         self._previous = {number: signal.signal(number, self._handle) for number in self.SIGNALS
@@ -64,7 +66,15 @@ class StopSignals:
     def __exit__(self, *exception):
         for number, handler in self._previous.items():
             signal.signal(number, handler)
+        sys.unraisablehook = self._previous_unraisable_hook
         return False
+
+    def _unraisable(self, unraisable):
+        # A signal that lands in a weakref callback or a __del__ (the import system runs
+        # some) cannot abandon the start from there: Python reports and drops the raise. The
+        # signal is still recorded, so the program stops as soon as it runs.
+        if not isinstance(unraisable.exc_value, Interrupted):
+            self._previous_unraisable_hook(unraisable)
 
     def _handle(self, number, frame):
         self.received.append(number)

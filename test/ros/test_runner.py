@@ -82,3 +82,24 @@ def test_handlers_are_put_back_and_an_ignored_signal_stays_ignored():
         assert signal.getsignal(signal.SIGTERM) is before
     finally:
         signal.signal(signal.SIGINT, previous)
+
+
+def test_a_signal_that_lands_in_a_weakref_callback_still_stops_the_program(monkeypatch):
+    """The import system runs weakref callbacks; Python reports a raise there as unraisable."""
+    import sys
+    import weakref
+    reported = []
+    monkeypatch.setattr(sys, 'unraisablehook', reported.append)
+
+    class Thing:
+        pass
+
+    def body(stop):
+        thing = Thing()
+        reference = weakref.ref(thing, lambda _: deliver())  # the signal lands in the callback
+        del thing
+        assert reference() is None and stop.requested  # the start went on, the stop is known
+        stop.running()
+        return None
+    assert run_command('thing', body, interrupted_code=130) == 130
+    assert reported == []  # nothing printed: no "Exception ignored ... Traceback"
