@@ -113,6 +113,11 @@ def stop_signals():
             _installed = None
 
 
+def stop_requested():
+    """Whether the running program was asked to stop (a signal arrived)."""
+    return _installed is not None and _installed.requested
+
+
 class Program:
     """What an executable runs: its nodes, when it is done and how it closes.
 

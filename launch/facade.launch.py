@@ -11,6 +11,12 @@ runs, from the facade description (``facade_file``, empty for the embedded 6 x 6
 demonstrator): the sun node gets the site, and the panels are split over ``panel_processes``
 ``panel_group --group K/N`` processes of the facade's panel ids. The sun node is the clock
 (mode simulated); the coordinator and the panels run on ``use_sim_time``.
+
+The coordinator and the panel processes are respawned when they die (``RESPAWN``: after 2 s,
+at most 5 times), as the ``facade`` command restarts them; a respawned panel process starts
+its panels vented and takes the coordinator's next setpoint. The sun node is not: it is the
+clock, and a new one would start the day again. Nor are the observers: a new recorder would
+refuse the existing bag directory, a new bridge overwrite the ``.rrd``.
 """
 
 import os
@@ -25,6 +31,8 @@ from flectofold_ros import contract
 from flectofold_ros.bringup.plan import plan_day, PlanError
 
 PACKAGE = 'flectofold_ros'
+#: How launch restarts a node process that died (the facade command backs off instead).
+RESPAWN = {'respawn': True, 'respawn_delay': 2.0, 'respawn_max_retries': 5}
 
 #: name -> (default, description) of the launch arguments.
 ARGUMENTS = {
@@ -68,13 +76,13 @@ def launch_setup(context, *args, **kwargs):
              output='screen', parameters=[plan.sun_parameters()]),
         Node(package=PACKAGE, executable='coordinator_node', name=contract.COORDINATOR_NODE,
              namespace=contract.FACADE_NODE_NAMESPACE, output='screen',
-             parameters=[plan.coordinator_parameters()]),
+             parameters=[plan.coordinator_parameters()], **RESPAWN),
     ]
     # No ``name``: a panel_group process hosts many panel nodes, and a node-name remap
     # would rename every one of them; ros2 launch labels the processes panel_group-<n>.
     actions += [Node(package=PACKAGE, executable='panel_group', output='screen',
                      arguments=plan.panel_group_arguments(group),
-                     parameters=[plan.panel_parameters()])
+                     parameters=[plan.panel_parameters()], **RESPAWN)
                 for group in range(plan.panel_processes)]
     return actions + _observers(context, plan)
 

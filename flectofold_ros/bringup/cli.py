@@ -4,7 +4,8 @@
 Stuttgart through the June solstice at 360 x. The sun node is the clock; the coordinator and
 the panel nodes run on ``use_sim_time``. Panels run in this process on one events executor and
 one vectorised loop, or split over ``--panel-processes`` child processes (``panel_group``).
-A progress line while it runs, a summary at the end; Ctrl-C stops everything cleanly.
+A progress line while it runs, a summary at the end; Ctrl-C stops everything cleanly. The
+child processes are supervised (:mod:`.supervision`): a dead one is restarted with back-off.
 """
 
 import argparse
@@ -12,8 +13,6 @@ import datetime
 import math
 import os
 import resource
-import signal
-import subprocess
 import sys
 import time
 
@@ -22,13 +21,16 @@ from rclpy.parameter import Parameter
 from rclpy.utilities import remove_ros_args
 
 from flectofold_model.facade import DEFAULT_FACADE, load_facade
-from flectofold_ros import contract
+from flectofold_ros import contract, diagnostics
 from flectofold_ros.bringup.monitor import Monitor
 from flectofold_ros.bringup.plan import local_time, MAX_LAG_S, plan_day
+from flectofold_ros.bringup.supervision import RestartPolicy, Supervisor
+from flectofold_ros.interfaces import publisher
 from flectofold_ros.nodes.coordinator import CoordinatorNode
 from flectofold_ros.nodes.panel import MAX_CALL_S, start_panels
+from flectofold_ros.nodes.panel_group import group_slice
 from flectofold_ros.nodes.sun_position import SunPositionNode
-from flectofold_ros.runner import Program, run_nodes
+from flectofold_ros.runner import Program, run_nodes, stop_requested
 
 #: Wall seconds the clock waits at the start for every panel and observer to be up.
 START_WAIT_S = 60.0
@@ -41,8 +43,12 @@ CATCH_UP_WAIT_S = 60.0
 DRAIN_S = 2.0
 #: Wall seconds panel processes and observers get to stop before they are killed.
 PANELS_STOP_S, OBSERVERS_STOP_S = 10.0, 120.0
-#: Exit codes of a day that was interrupted, and of one whose processes failed to start.
-INTERRUPTED, FAILED = 130, 1
+#: Wall seconds the clock waits for a restarted panel process's panels to report again (twice
+#: the start's wait: a restart competes with the running processes for the CPU).
+RESTART_WAIT_S = 2.0 * START_WAIT_S
+#: Exit codes of a day that was interrupted, of one whose processes failed to start, and of
+#: one that lost a supervised process for good.
+INTERRUPTED, FAILED, LOST = 130, 1, 3
 
 
 def parse_arguments(argv):
@@ -68,7 +74,13 @@ def parse_arguments(argv):
     parser.add_argument('--out', default='out',
                         help='directory for the bag and the .rrd (default out/); each run '
                              'gets a folder, out/latest points to the newest')
+    parser.add_argument('--restart-limit', type=int, default=RestartPolicy.restart_limit,
+                        help='restarts of a child process that keeps dying before its panels '
+                             f'are given up (default {RestartPolicy.restart_limit}; 0: never '
+                             'restart)')
     options = parser.parse_args(argv)
+    if not 0 <= options.restart_limit <= 1000:
+        parser.error(f'--restart-limit must lie in [0, 1000], got {options.restart_limit}')
     if not (math.isfinite(options.progress_period) and options.progress_period > 0):
         parser.error(f'--progress-period must be a positive number of seconds, got '
                      f'{options.progress_period:g}')
@@ -131,7 +143,9 @@ class Bringup(Program):
     def __init__(self, options, facade, plan):
         super().__init__()
         self.facade, self.plan = facade, plan
-        self.children, self.observers = [], []
+        self.supervisor = Supervisor(RestartPolicy(restart_limit=options.restart_limit))
+        self._awaiting = {}
+        """Restarted panel processes the clock waits for: name -> wall deadline [s]."""
         self.panels = None
         """The panel program when the panels run in this process."""
         self.outputs = (run_directory(options.out, plan)
@@ -143,6 +157,8 @@ class Bringup(Program):
         """CPU seconds of the panel processes at the day's start and end."""
         self.phase, self._phase_since = 'starting', self.started
         self.holds, self.held_s, self._held_since = 0, 0.0, None
+        self.hold_causes = set()
+        """Why the clock was held: 'lag', 'restart'."""
         self.failed = False
         try:
             self._start(options)
@@ -153,15 +169,19 @@ class Bringup(Program):
     def _start(self, options):
         plan = self.plan
         env = dict(os.environ, PYTHONUNBUFFERED='1')
+        supervisor, outputs = self.supervisor, self.outputs
         if options.record:
-            self.observers.append(subprocess.Popen(
-                plan.recorder_command(os.path.join(self.outputs, 'bag')), env=env))
+            supervisor.add('bag_recorder', lambda start: plan.recorder_command(
+                os.path.join(outputs, _numbered('bag', start))), env=env)
         if options.rerun:
-            self.observers.append(subprocess.Popen(
-                plan.bridge_command(os.path.join(self.outputs, 'facade.rrd'), options.rerun),
-                env=env))
-        self.children = [subprocess.Popen(plan.panel_group_command(k), env=env)
-                         for k in range(plan.panel_processes)]
+            supervisor.add('rerun_bridge', lambda start: plan.bridge_command(
+                os.path.join(outputs, _numbered('facade', start) + '.rrd'), options.rerun),
+                env=env)
+        groups = plan.panel_processes
+        for k in range(groups):
+            supervisor.add(f'panel_group {k}/{groups}',
+                           lambda start, k=k: plan.panel_group_command(k),
+                           group_slice(self.facade.panel_ids, k, groups), env)
         self.coordinator = CoordinatorNode(
             parameter_overrides=parameters(plan.coordinator_parameters()))
         self.nodes.append(self.coordinator)
@@ -172,11 +192,12 @@ class Bringup(Program):
         self.sun = SunPositionNode(parameter_overrides=parameters(plan.sun_parameters()))
         self.sun.hold()
         self.monitor = Monitor(self.facade)
+        self._diagnostics = publisher(self.monitor, contract.DIAGNOSTICS)
         self.nodes += [self.sun, self.monitor]
         steady = Clock(clock_type=ClockType.STEADY_TIME)
         self.monitor.create_timer(options.progress_period, self._print_progress, clock=steady)
         self.monitor.create_timer(0.25, self._advance, clock=steady)
-        where = f'in {len(self.children)} processes' if self.children else 'in this process'
+        where = f'in {groups} processes' if groups else 'in this process'
         print(f'facade: {self.facade.name}, {len(self.facade)} panels ({where}), '
               f'{plan.start_iso} .. {plan.end_iso} at {plan.speedup:g}x; Ctrl-C stops',
               flush=True)
@@ -189,21 +210,32 @@ class Bringup(Program):
     def _enter(self, phase):
         self.phase, self._phase_since = phase, time.monotonic()
 
+    @property
+    def observers(self):
+        return [child for child in self.supervisor.children if not child.panels]
+
+    def _panel_processes(self):
+        return self.supervisor.processes(panels=True)
+
     def _advance(self):
+        if stop_requested():  # children stopping on the same Ctrl-C are not deaths
+            return
         waited = time.monotonic() - self._phase_since
+        if self.phase not in ('starting', 'done'):
+            self._supervise()
         if self.phase == 'starting':
             self._while_starting(waited)
         elif self.phase == 'settling' and waited > MATCH_SETTLE_S:
             self._start_day()
         elif self.phase == 'day':
-            self._hold_clock_for_laggards()
+            self._hold_clock()
             if self.monitor.clock_s is not None and \
                     self.monitor.clock_s >= self.plan.end_epoch_s:
                 self.day_ended = time.monotonic()
-                self._panel_cpu_s.append(_processes_cpu_s(self.children))
+                self._panel_cpu_s.append(_processes_cpu_s(self._panel_processes()))
                 self._enter('ending')
         elif self.phase == 'ending':
-            self._hold_clock_for_laggards()
+            self._hold_clock()
             caught_up = self.monitor.caught_up(self.plan.end_epoch_s, self.plan.state_period_s)
             if (caught_up and waited > 1.5) or waited > CATCH_UP_WAIT_S:
                 self._enter('draining' if self.observers else 'done')
@@ -211,10 +243,10 @@ class Bringup(Program):
             self._enter('done')
 
     def _while_starting(self, waited):
-        ended = [process for process in self.children + self.observers
-                 if process.poll() is not None]
+        self.supervisor.check()
+        ended = self.supervisor.ended_while_starting()
         if ended:
-            print(f'facade: {", ".join(_describe(process) for process in ended)} ended while '
+            print(f'facade: {", ".join(_describe(child) for child in ended)} ended while '
                   f'starting; stopping', flush=True)
             self.failed = True
             self._enter('done')
@@ -232,17 +264,69 @@ class Bringup(Program):
     def _start_day(self):
         self.sun.release()
         self.day_started = time.monotonic()
-        self._panel_cpu_s = [_processes_cpu_s(self.children)]
+        self._panel_cpu_s = [_processes_cpu_s(self._panel_processes())]
         self._enter('day')
 
-    def _hold_clock_for_laggards(self):
-        """Hold simulated time while a panel loop is more than MAX_LAG_S behind it."""
-        lagging = self.monitor.lag_s(self.plan.start_epoch_s) > MAX_LAG_S
-        if lagging and not self.sun.held:
+    # -- supervision ------------------------------------------------------------------------
+
+    def _supervise(self):
+        """Log deaths and restarts; forget a dead process's panels until they report again."""
+        events = self.supervisor.check()
+        for child, text in events:
+            if child.state == 'running':  # rclpy wants one severity per call site
+                self.monitor.get_logger().info(text)
+            else:
+                self.monitor.get_logger().warning(text)
+            print(f'facade: {text}', flush=True)
+            if child.deaths and child.deaths[-1].sim_time_s is None:
+                child.deaths[-1].sim_time_s = self.monitor.clock_s
+            if child.lost:
+                self.monitor.lose(child.panels)
+                self._awaiting.pop(child.name, None)
+            elif child.state == 'restarting':
+                self.monitor.forget(child.panels)
+                self._awaiting[child.name] = math.inf
+            elif child.panels:
+                self._awaiting[child.name] = time.monotonic() + RESTART_WAIT_S
+        for child in self.supervisor.children:
+            if child.name in self._awaiting and child.state == 'running' and (
+                    self.monitor.heard(child.panels) or
+                    time.monotonic() > self._awaiting[child.name]):
+                del self._awaiting[child.name]
+        if events:
+            self._publish_supervision()
+
+    def _publish_supervision(self):
+        """One status per supervised process on /diagnostics (OK, WARN restarting, ERROR lost)."""
+        levels = {'running': diagnostics.OK, 'restarting': diagnostics.WARN,
+                  'lost': diagnostics.ERROR}
+        statuses = []
+        for child in self.supervisor.children:
+            last = child.deaths[-1].cause if child.deaths else ''
+            statuses.append(diagnostics.status(
+                self.monitor, levels[child.state], 'supervision', child.name, child.state,
+                {'pid': child.process.pid, 'restarts': child.restarts,
+                 'deaths': len(child.deaths), 'last_death': last,
+                 'panels': len(child.panels)}))
+        self._diagnostics.publish(diagnostics.diagnostic_array(self.monitor, statuses))
+
+    def _hold_clock(self):
+        """Hold simulated time while a panel loop lags or a panel process restarts.
+
+        A loop lags when it is more than MAX_LAG_S behind the clock; a dead panel process
+        holds the clock until its restart's panels report again (or RESTART_WAIT_S passed).
+        """
+        causes = set()
+        if self.monitor.lag_s(self.plan.start_epoch_s) > MAX_LAG_S:
+            causes.add('lag')
+        if self._awaiting:
+            causes.add('restart')
+        self.hold_causes |= causes
+        if causes and not self.sun.held:
             self.holds += 1
             self._held_since = time.monotonic()
             self.sun.hold()
-        elif not lagging and self.sun.held:
+        elif not causes and self.sun.held:
             self.held_s += time.monotonic() - self._held_since
             self.sun.release()
 
@@ -252,7 +336,13 @@ class Bringup(Program):
         line = (self.monitor.starting_line(len(self.observers))
                 if self.phase in ('starting', 'settling')
                 else self.monitor.progress_line(self.plan.start_epoch_s))
+        down = [child.name for child in self.supervisor.children
+                if child.state == 'restarting' or child.name in self._awaiting]
+        if down:
+            line += f' | restarting {", ".join(down)}'
         print(f'[{elapsed:6.1f} s] {line}', flush=True)
+        if self.supervisor.deaths():
+            self._publish_supervision()
 
     # -- the end ----------------------------------------------------------------------------
 
@@ -267,11 +357,30 @@ class Bringup(Program):
             print('\n'.join(output_lines(self.outputs)), flush=True)
         if self.failed:
             return FAILED
-        return INTERRUPTED if interrupted else 0
+        if interrupted:
+            return INTERRUPTED
+        return LOST if any(child.lost for child in self.supervisor.children) else 0
 
     def _stop_children(self):
-        _stop(self.children, PANELS_STOP_S)
-        _stop(self.observers, OBSERVERS_STOP_S)
+        self.supervisor.stop(PANELS_STOP_S, panels=True)
+        self.supervisor.stop(OBSERVERS_STOP_S, panels=False)
+
+    def _supervision_lines(self):
+        """Every death and restart of a supervised process, and the panels lost."""
+        deaths = self.supervisor.deaths()
+        if not deaths:
+            return ['  supervision: no process died']
+        lost = self.supervisor.panels_lost()
+        restarts = sum(death.restarted_at_s is not None for death in deaths)
+        offset = self.facade.utc_offset_h
+
+        def when(death):
+            return ('the start' if death.sim_time_s is None else
+                    local_time(death.sim_time_s, offset)[-5:] + ' (local)')
+        return ([f'  supervision: {len(deaths)} deaths, {restarts} restarts, '
+                 f'{len(lost)} panels lost for good' +
+                 (f' ({", ".join(lost[:6])}{" ..." if len(lost) > 6 else ""})' if lost else '')]
+                + self.supervisor.summary_lines(when))
 
     def summary_lines(self, wall_s, interrupted, process_wall_s):
         """Return the end-of-run summary: the day's figures, then CPU and memory.
@@ -291,7 +400,9 @@ class Bringup(Program):
                  f'{sim_s / max(wall_s, 1e-9):.0f}x real time (asked {plan.speedup:g}x)',
                  f'  panels reporting: {monitor.reporting()}/{len(facade)}; clock held '
                  f'{self.holds} times, {self.held_s:.1f} s wall, for panel loops more than '
-                 f'{MAX_LAG_S:g} s behind']
+                 f'{MAX_LAG_S:g} s behind' +
+                 (' or restarting panel processes' if 'restart' in self.hold_causes else '')]
+        lines += self._supervision_lines()
         figures = self.coordinator.figures()
         if figures['decisions']:
             lines.append(f'  coordinator: {figures["decisions"]} decisions, moves per panel '
@@ -309,8 +420,8 @@ class Bringup(Program):
                       f'{rejected:.0f}; panels in setpoint timeout {timeouts}',
                       f'  simulation: at most {monitor.largest_behind_s():.1f} s behind the '
                       f'clock (a loop call works at most {MAX_CALL_S:g} s)']
-        if self.children and len(self._panel_cpu_s) == 2 and None not in self._panel_cpu_s \
-                and wall_s > 0.0:
+        if self._panel_processes() and len(self._panel_cpu_s) == 2 and \
+                None not in self._panel_cpu_s and wall_s > 0.0 and not self.supervisor.deaths():
             spent = self._panel_cpu_s[1] - self._panel_cpu_s[0]
             lines.append(f"  panel processes: {spent:.1f} CPU s in the day's {wall_s:.1f} s "
                          f'({spent / wall_s:.2f} cores together)')
@@ -322,18 +433,9 @@ class Bringup(Program):
         return lines
 
 
-def _stop(processes, timeout_s):
-    """SIGINT every process that still runs (a terminal may have sent it already), then wait."""
-    for process in processes:
-        if process.poll() is None:
-            process.send_signal(signal.SIGINT)
-    deadline = time.monotonic() + timeout_s
-    for process in processes:
-        try:
-            process.wait(timeout=max(0.1, deadline - time.monotonic()))
-        except subprocess.TimeoutExpired:
-            process.kill()
-            process.wait()
+def _numbered(name, start):
+    """Output of start ``start`` of an observer: ``bag``, then ``bag.restart1`` ..."""
+    return name if start == 0 else f'{name}.restart{start}'
 
 
 def _processes_cpu_s(processes):
@@ -349,12 +451,9 @@ def _processes_cpu_s(processes):
     return total
 
 
-def _describe(process):
-    """Name a child process by its executable and how it ended: ``panel_group (exit 2)``."""
-    command = process.args
-    name = command[command.index('flectofold_ros') + 1] if 'flectofold_ros' in command \
-        else command[0]
-    return f'{name} (exit {process.returncode})'
+def _describe(child):
+    """Name a child and how it ended: ``panel_group 0/2 (exit 2)``."""
+    return f'{child.name} ({child.deaths[-1].cause})'
 
 
 def main(args=None):

@@ -39,6 +39,8 @@ class Monitor(Node):
         self.fault = np.zeros(count, dtype=np.uint8)
         self.status = np.zeros(count, dtype=np.uint8)
         self.counters = {key: np.full(count, np.nan) for key in self.COUNTERS}
+        self.lost = np.zeros(count, dtype=bool)
+        """Panels whose process is dead for good: left out of readiness, lag and catching up."""
         self.behind_s = 0.0
         """Largest lag behind the clock any panel process's simulation reported [s]."""
         self.foreign = 0
@@ -66,6 +68,25 @@ class Monitor(Node):
         self.closure[index], self.setpoint[index] = table['closure'], table['setpoint']
         self.fault[index], self.status[index] = table['fault'], table['status']
 
+    def forget(self, panel_ids):
+        """Drop what is known of ``panel_ids`` (their process died): unheard until they report."""
+        index = self._indices(panel_ids)
+        for values in (self.state_stamp_s, self.closure, self.setpoint):
+            values[index] = np.nan
+        self.fault[index], self.status[index] = 0, 0
+
+    def heard(self, panel_ids):
+        """Whether every one of ``panel_ids`` has reported since it was last forgotten."""
+        return bool(np.all(np.isfinite(self.state_stamp_s[self._indices(panel_ids)])))
+
+    def lose(self, panel_ids):
+        """Count ``panel_ids`` lost for good."""
+        self.forget(panel_ids)
+        self.lost[self._indices(panel_ids)] = True
+
+    def _indices(self, panel_ids):
+        return np.array([self._lookup[panel_id] for panel_id in panel_ids], dtype=np.intp)
+
     def _on_diagnostics(self, message):
         for status in message.status:
             i = self._lookup.get(status.hardware_id)
@@ -84,7 +105,11 @@ class Monitor(Node):
         """
         return (self.count_subscribers(contract.SUN.name) >= 1 + observers and
                 self.count_subscribers(contract.PANEL_STATES.name) >= 1 + observers and
-                self.reporting() == len(self.facade))
+                self.reporting() == len(self.facade) - self.lost_count())
+
+    def lost_count(self):
+        """Panels lost for good."""
+        return int(np.count_nonzero(self.lost))
 
     def reporting(self):
         """Panels heard from (a state, at least once)."""
@@ -99,11 +124,13 @@ class Monitor(Node):
         if self.clock_s is None:
             return math.nan
         stamps = np.where(np.isfinite(self.state_stamp_s), self.state_stamp_s, start_s)
-        return self.clock_s - float(stamps.min())
+        stamps = stamps[~self.lost]
+        return self.clock_s - float(stamps.min()) if len(stamps) else 0.0
 
     def caught_up(self, end_s, state_period_s):
         """Whether every panel published a state of the day's last ``state_period_s``."""
-        return bool(np.all(self.state_stamp_s >= end_s - state_period_s - 1.0))
+        stamps = self.state_stamp_s[~self.lost]
+        return bool(np.all(stamps >= end_s - state_period_s - 1.0))
 
     def faults(self):
         """Return the faults the panels report, sorted."""
@@ -146,7 +173,8 @@ class Monitor(Node):
         closure = f'{self.closure[heard].mean():.2f}' if heard.any() else '-'
         wanted = f'{self.setpoint[heard].mean():.2f}' if heard.any() else '-'
         faulted = int(np.count_nonzero(self.fault))
-        return (f'sim {local} | panels reporting {self.reporting()}/{len(self.facade)} | '
+        lost = f' ({self.lost_count()} lost)' if self.lost.any() else ''
+        return (f'sim {local} | panels reporting {self.reporting()}/{len(self.facade)}{lost} | '
                 f'closure {closure} (tracking {wanted}) | faults {faulted} | loop lag '
                 f'{self.lag_s(start_s):.0f} s sim')
 

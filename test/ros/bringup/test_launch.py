@@ -255,3 +255,12 @@ def test_the_recorder_and_the_bridge_on_request(launch_module, tmp_path):
     assert _parameters(bridge) == {'use_sim_time': True, 'viewer': 'none', 'facade_file': '',
                                    'rrd_path': str(tmp_path / 'day.rrd')}
     assert len(_nodes(launch_module)) == 4  # neither by default
+
+
+def test_panel_processes_and_the_coordinator_respawn_the_clock_does_not(launch_module):
+    nodes = _nodes(launch_module, record_bag='/tmp/unused_bag', rerun_viewer='none')
+    respawned = {node.kwargs['executable'] for node in nodes if node.kwargs.get('respawn')}
+    assert respawned == {'panel_group', 'coordinator_node'}
+    for kwargs in (node.kwargs for node in nodes):
+        if kwargs.get('respawn'):
+            assert kwargs['respawn_delay'] > 0 and kwargs['respawn_max_retries'] >= 1
