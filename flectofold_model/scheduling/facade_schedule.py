@@ -52,7 +52,7 @@ def representative_panel(facade):
 class FacadeSchedule:
     """The per-period decision of a facade: sun vector -> commanded closure per panel."""
 
-    def __init__(self, facade, start_s=0.0, table=None):
+    def __init__(self, facade, start_s=0.0, table=None, wind_timeout_s=60.0):
         self.facade = facade
         self.shading_target = facade.control.get('shading_target', 0.9)
         self.table = table if table is not None else ShadingTable(representative_panel(facade))
@@ -61,7 +61,7 @@ class FacadeSchedule:
         self.parameters = scheduler_parameters(facade)
         self.scheduler = Scheduler(len(facade), full_close_air_nl(facade), self.parameters,
                                    initial_closure=self.parameters.default_closure,
-                                   start_s=start_s)
+                                   start_s=start_s, wind_timeout_s=wind_timeout_s)
 
     def desired_closure(self, sun_enu):
         """Desired closure (N,) for a sun vector (3,) or a look-ahead window (W, 3) in ENU."""
@@ -75,6 +75,12 @@ class FacadeSchedule:
         return self.table.choose(in_panels, self.shading_target)
 
     def step(self, now_s, sun_enu, dni_w_m2=None, wind_m_s=None, faulted=None):
-        """Commanded closures for this period, with the reasons (see :class:`ScheduleResult`)."""
-        return self.scheduler.step(now_s, self.desired_closure(sun_enu), wind_m_s=wind_m_s,
+        """Commanded closures for this period, with the reasons (see :class:`ScheduleResult`).
+
+        ``sun_enu`` None (no sun known): each panel's desired closure is its commanded one,
+        so automatic panels hold while a storm still moves the rest.
+        """
+        desired = (self.scheduler.commanded_closure if sun_enu is None
+                   else self.desired_closure(sun_enu))
+        return self.scheduler.step(now_s, desired, wind_m_s=wind_m_s,
                                    dni_w_m2=dni_w_m2, faulted=faulted)

@@ -14,11 +14,20 @@ fault       ``faulted`` panel: the commanded closure is left as it is, no air, n
             any move in progress is dropped.
 storm       storm latch set: ``storm_position`` at once, ignoring dwell, deadband, rate limit,
             daily cap and air budget (air it takes is still drawn, the bucket stops at zero).
+            The latch (:class:`~.storm.StormLatch`) runs on timestamped gust samples.
 override    a manual override that has not expired: its closure, through the rate limit, the
             air budget and the daily cap, but not the dwell or the deadband.
 automatic   ``desired_closure`` while the DNI gate is on, ``default_closure`` while it is off;
             through deadband, dwell, daily cap, rate limit and air budget.
 ==========  ====================================================================================
+
+**Storm and overrides.** When the latch trips every override ends; while it is set
+:meth:`Scheduler.set_override` refuses new ones (:class:`OverrideRefused`): an override is
+not kept to take effect after the storm. After the release the panels are scheduled
+automatically. Feed wind samples as they arrive with :meth:`Scheduler.observe_wind` (or one
+per call with ``step(wind_m_s=...)``) and evaluate a pending trip with
+:meth:`Scheduler.advance_storm` at :attr:`Scheduler.storm_due_s`: the latch acts at its
+instant, not at the next call of :meth:`Scheduler.step`.
 
 **Moves.** A panel at rest starts a move when its target passes the checks of its mode; the
 move runs to the goal latched then (a later change of the automatic target waits until the
@@ -65,6 +74,7 @@ from typing import NamedTuple
 import numpy as np
 
 from flectofold_model._validate import in_range, real_array, real_scalar
+from flectofold_model.scheduling.storm import StormLatch
 
 SECONDS_PER_DAY = 86400.0
 #: Slack when comparing a running total of air costs with the tokens left [NL].
@@ -87,6 +97,10 @@ class Reason(enum.Enum):
     STORM = 'storm'
     FAULT = 'fault'
     DNI_GATE = 'dni_gate'
+
+
+class OverrideRefused(RuntimeError):
+    """A manual override was refused: the storm latch is set."""
 
 
 _REASONS = np.array(list(Reason), dtype=object)
@@ -230,6 +244,9 @@ class Scheduler:
     storm_latched : bool
         Storm latch to start with, as saved from :attr:`storm_latched` by a coordinator
         that restarts.
+    wind_timeout_s : float
+        A wind sample counts until the next one but at most this long [s], ``> 0`` (see
+        :class:`~.storm.StormLatch`).
     start_s : float
         Clock at construction [s, UTC Unix time]; the first :meth:`step` integrates the
         rate limit and the bucket refill from here and may not be earlier.
@@ -241,7 +258,8 @@ class Scheduler:
     """
 
     def __init__(self, count, air_cost_nl_per_closure, parameters=SchedulerParameters(),
-                 zones=None, initial_closure=0.0, storm_latched=False, start_s=0.0):
+                 zones=None, initial_closure=0.0, storm_latched=False, start_s=0.0,
+                 wind_timeout_s=60.0):
         if isinstance(count, (bool, np.bool_)) or not isinstance(count, Integral) or count < 1:
             raise ValueError(f'count must be a positive integer, got {count!r}')
         if not isinstance(parameters, SchedulerParameters):
@@ -257,9 +275,7 @@ class Scheduler:
         self._commanded = self._per_panel('initial_closure', initial_closure, 0.0, 1.0)
         self._now_s = real_scalar('start_s', start_s)
         self._day = math.floor(self._now_s / SECONDS_PER_DAY)
-        self._storm_latched = bool(storm_latched)
-        self._above_since_s = None
-        self._below_since_s = None
+        self._storm = StormLatch(parameters, wind_timeout_s, storm_latched, self._now_s)
         self._gate_on = False
         self._tokens_nl = parameters.capacity_nl
         self._goal = self._commanded.copy()
@@ -278,7 +294,48 @@ class Scheduler:
     @property
     def storm_latched(self):
         """Whether the storm latch is set (save it to restore a restarted coordinator)."""
-        return self._storm_latched
+        return self._storm.latched
+
+    @property
+    def storm_due_s(self):
+        """Instant the storm latch trips or releases if no other sample comes [s]; or None."""
+        return self._storm.due_s
+
+    @property
+    def storm_changed_s(self):
+        """Instant of the storm latch's last trip or release [s]; None before the first."""
+        return self._storm.changed_s
+
+    @property
+    def storm_time_s(self):
+        """Latest instant the storm latch was evaluated at [s]; later calls may not be earlier."""
+        return self._storm.now_s
+
+    def wind_m_s(self, now_s):
+        """Return the wind sample that counts at ``now_s`` [m/s]; None if none or stale."""
+        return self._storm.wind_m_s(now_s)
+
+    def observe_wind(self, wind_m_s, at_s):
+        """Take a gust sample [m/s, >= 0] on its arrival at ``at_s`` [s]; return the latch.
+
+        The trip (or release) timer starts at ``at_s``; a trip ends every override. The
+        commanded closures change at the next :meth:`step`, which a caller makes at once
+        when the latch changed. ``at_s`` may not be earlier than :attr:`storm_time_s`.
+        """
+        self._storm.sample(wind_m_s, at_s)
+        self._after_storm()
+        return self._storm.latched
+
+    def advance_storm(self, now_s):
+        """Evaluate the storm latch at ``now_s`` [s] on the last sample; return the latch."""
+        self._storm.advance(now_s)
+        self._after_storm()
+        return self._storm.latched
+
+    def _after_storm(self):
+        if self._storm.latched:
+            self._override_closure[:] = np.nan
+            self._override_until_s[:] = -np.inf
 
     @property
     def dni_gate_on(self):
@@ -315,6 +372,11 @@ class Scheduler:
             Zone label (see the constructor's ``zones``) whose panels to override.
         duration_s : float, optional
             Life of the override [s], ``> 0``; ``override_duration_s`` when not given.
+
+        Raises
+        ------
+        OverrideRefused
+            If the storm latch is set at ``now_s``: the override is not kept.
         """
         selected = self._select(panels, zone, everything_if_none=False)
         closure = real_scalar('closure', closure)
@@ -329,6 +391,11 @@ class Scheduler:
             duration = real_scalar('duration_s', duration_s)
             if duration <= 0.0:
                 raise ValueError(f'duration_s must be positive, got {duration:g} s')
+        if self.advance_storm(now):
+            since = self._storm.changed_s
+            raise OverrideRefused('storm latch set' + ('' if since is None else
+                                                       f' since {since:.1f} s')
+                                  + ': an override is not kept for after the storm')
         self._override_closure[selected] = closure
         self._override_until_s[selected] = now + duration
 
@@ -352,8 +419,8 @@ class Scheduler:
         desired_closure : array-like
             Automatic target of each panel, scalar or (N,), in [0, 1].
         wind_m_s : float, optional
-            Gust wind speed [m/s], ``>= 0``. When not given the storm latch keeps its state
-            and both of its timers restart (a gap in the readings breaks "continuously").
+            Gust wind speed sampled at ``now_s`` [m/s], ``>= 0`` (:meth:`observe_wind`).
+            When not given the last sample counts on until it is stale.
         dni_w_m2 : float, optional
             Direct normal irradiance [W/m2], ``>= 0``. When not given the DNI gate counts as
             on for this call and keeps its stored state.
@@ -401,7 +468,7 @@ class Scheduler:
         live = self._override_until_s > now
         self._override_closure[~live] = np.nan
         self._override_until_s[~live] = -np.inf
-        storm = ~fault & self._storm_latched
+        storm = ~fault & self._storm.latched
         override = ~fault & ~storm & live
         auto = ~(fault | storm | override)
         mode = np.select([fault, storm, override], [_FAULT_MODE, _STORM_MODE, _OVERRIDE_MODE],
@@ -525,28 +592,11 @@ class Scheduler:
         return admitted, float(total[count - 1]) if count else 0.0
 
     def _update_storm(self, now, wind):
-        parameters = self.parameters
         if wind is None:
-            self._above_since_s = self._below_since_s = None
-            return
-        if not self._storm_latched:
-            self._below_since_s = None
-            if wind <= parameters.wind_on_m_s:
-                self._above_since_s = None
-                return
-            if self._above_since_s is None:
-                self._above_since_s = now
-            if now - self._above_since_s >= parameters.storm_on_delay_s:
-                self._storm_latched, self._above_since_s = True, None
-            return
-        self._above_since_s = None
-        if wind >= parameters.wind_off_m_s:
-            self._below_since_s = None
-            return
-        if self._below_since_s is None:
-            self._below_since_s = now
-        if now - self._below_since_s >= parameters.storm_off_delay_s:
-            self._storm_latched, self._below_since_s = False, None
+            self._storm.advance(now)
+        else:
+            self._storm.sample(wind, now)
+        self._after_storm()
 
     def _update_gate(self, dni):
         if dni is None:
@@ -559,9 +609,10 @@ class Scheduler:
 
     def _check_step(self, now_s, desired_closure, wind_m_s, dni_w_m2, faulted):
         now = real_scalar('now_s', now_s)
-        if now < self._now_s:
+        last_s = max(self._now_s, self._storm.now_s)
+        if now < last_s:
             raise ValueError(f'now_s must not go backwards: got {now:.3f} s after '
-                             f'{self._now_s:.3f} s')
+                             f'{last_s:.3f} s')
         desired = self._per_panel('desired_closure', desired_closure, 0.0, 1.0)
         readings = []
         for name, value, unit in (('wind_m_s', wind_m_s, ' m/s'),

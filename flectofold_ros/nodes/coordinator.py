@@ -3,7 +3,10 @@
 Each ``control.period_s`` of ROS time it runs
 :class:`flectofold_model.scheduling.FacadeSchedule` on the latest sun vector and publishes
 each panel's commanded closure; between decisions it repeats them every ``setpoint_period_s``
-as the panels' watchdog heartbeat. Topics, parameters and QoS: ``msg_docs/coordinator_node.md``.
+as the panels' watchdog heartbeat. The storm latch is not left to the decision period: each
+wind sample goes to it on arrival, a short timer evaluates it while a trip or release is
+due, and a change is decided and published at once. Topics, parameters and QoS:
+``msg_docs/coordinator_node.md``.
 """
 
 from collections import Counter
@@ -18,6 +21,7 @@ from flectofold_model.environment import SunEphemeris
 from flectofold_model.facade import DEFAULT_FACADE, load_facade
 from flectofold_model.scheduling import FacadeSchedule
 from flectofold_model.scheduling.facade_schedule import representative_panel
+from flectofold_model.scheduling.scheduler import OverrideRefused
 from flectofold_model.shading import ShadingTable
 from flectofold_ros import contract, diagnostics, panel_states
 from flectofold_ros.interfaces import publisher, subscription
@@ -37,6 +41,9 @@ PARAMETERS = {
                                 1.0, 86400.0),
     'override_duration_s': double(0.0, 'Life of an override [s]; 0: the facade default',
                                   0.0, 604800.0),
+    'storm_check_period_s': double(
+        0.5, 'While the storm latch is due to trip or release, it is evaluated this often '
+        '[s of ROS time]', 0.01, 10.0),
     'diagnostics_period_s': double(1.0, 'Period of /diagnostics, wall clock [s]', 0.1, 60.0),
 }
 
@@ -61,9 +68,11 @@ class CoordinatorNode(Node):
         self.air_used_nl = 0.0
         self.peak_filling = 0
         self.rejected = Counter()
+        self.overrides_refused_in_storm = 0
+        self._storm_decided = False
+        self._sun_decided = False
         self._last_decision_s = -math.inf
         self._sun = None
-        self._wind = None
         self._dni = None
         self._faulted = dict.fromkeys(self.facade.panel_ids, False)
         self._setpoints = [publisher(self, contract.SETPOINT.of(panel_id))
@@ -78,6 +87,9 @@ class CoordinatorNode(Node):
         self._diagnostics = publisher(self, contract.DIAGNOSTICS)
         self.create_timer(self.period_s, self._decide)
         self.create_timer(self._value('setpoint_period_s'), self._heartbeat)
+        self._storm_timer = self.create_timer(self._value('storm_check_period_s'),
+                                              self._check_storm)
+        self._storm_timer.cancel()
         self.create_timer(self._value('diagnostics_period_s'), self._report,
                           clock=Clock(clock_type=ClockType.STEADY_TIME))
         self.get_logger().info(f'{self.facade.name}: {len(self.facade)} panels, a decision '
@@ -102,7 +114,7 @@ class CoordinatorNode(Node):
             self._reject('sun', f'not a finite unit vector: {vector}')
             return
         self._sun = (vector, self._now_s())
-        if self.schedule is None:
+        if not self._sun_decided:
             self._decide()
 
     def _on_reading(self, name, message, low, high):
@@ -113,7 +125,18 @@ class CoordinatorNode(Node):
         return value, self._now_s()
 
     def _on_wind(self, message):
-        self._wind = self._on_reading('wind_speed', message, 0.0, 100.0) or self._wind
+        reading = self._on_reading('wind_speed', message, 0.0, 100.0)
+        if reading is None:
+            return
+        if reading[1] <= 0.0 or not self._ensure_schedule(reading[1]):
+            return
+        scheduler = self.schedule.scheduler
+        if reading[1] < scheduler.storm_time_s:
+            self._reject('wind_speed', f'the clock went back to {reading[1]:.3f} s')
+            return
+        was = scheduler.storm_latched
+        scheduler.observe_wind(*reading)
+        self._storm_changed(was)
 
     def _on_dni(self, message):
         self._dni = self._on_reading('dni', message, 0.0, 1500.0) or self._dni
@@ -143,17 +166,30 @@ class CoordinatorNode(Node):
         if len(message.name) != len(message.position):
             self._reject('override', 'name and position differ in length')
             return
+        self._check_storm()
+        if self.schedule.scheduler.storm_latched:
+            self._refuse_in_storm(message.name)
+            return
         duration = self._value('override_duration_s') or None
         for name, closure in zip(message.name, message.position):
             try:
                 panels = self._selection(name)
                 self.schedule.scheduler.set_override(closure, self._decision_time(), panels,
                                                      duration_s=duration)
+            except OverrideRefused:
+                self._refuse_in_storm(message.name)
+                return
             except (ValueError, TypeError) as error:
                 self._reject('override', f'{name}: {error}')
                 continue
             self.get_logger().info(f'override {name}: closure {closure:g}')
         self._decide()
+
+    def _refuse_in_storm(self, names):
+        self.overrides_refused_in_storm += 1
+        self._reject('override', f'{", ".join(names)}: refused, storm latch set (wind above '
+                     f'{self.schedule.parameters.wind_on_m_s:g} m/s); an override is not '
+                     'kept for after the storm')
 
     def _on_override_clear(self, message):
         if self.schedule is None:
@@ -165,7 +201,43 @@ class CoordinatorNode(Node):
                 self._reject('override_clear', str(error))
         self._decide()
 
+    # -- storm ------------------------------------------------------------------------------
+
+    def _check_storm(self):
+        """Evaluate the storm latch now (the storm timer, and before an override)."""
+        now = self._now_s()
+        if self.schedule is None or now <= 0.0:
+            return
+        scheduler = self.schedule.scheduler
+        if now < scheduler.storm_time_s:
+            return
+        was = scheduler.storm_latched
+        scheduler.advance_storm(now)
+        self._storm_changed(was)
+
+    def _storm_changed(self, was):
+        """Decide at once when the latch changed; run the storm timer while one is due."""
+        scheduler = self.schedule.scheduler
+        if scheduler.storm_latched != was:
+            self.get_logger().warning(
+                f'storm latch {"tripped" if scheduler.storm_latched else "released"} at '
+                f'{scheduler.storm_changed_s:.3f} s: panels '
+                f'{"to the storm position" if scheduler.storm_latched else "back to automatic"}')
+            self._decide()
+        if scheduler.storm_due_s is None:
+            self._storm_timer.cancel()
+        elif self._storm_timer.is_canceled():
+            self._storm_timer.reset()
+
     # -- decisions --------------------------------------------------------------------------
+
+    def _ensure_schedule(self, now):
+        """Make the schedule at the first sun vector or wind sample; return whether it exists."""
+        if self.schedule is None and now > 0.0:
+            self.schedule = FacadeSchedule(self.facade, start_s=now, table=self._table,
+                                           wind_timeout_s=self._value('weather_timeout_s'))
+            self._last_decision_s = now
+        return self.schedule is not None
 
     def _decision_time(self):
         return max(self._now_s(), self._last_decision_s)
@@ -184,23 +256,29 @@ class CoordinatorNode(Node):
                  for k in range(math.floor(self.look_ahead_s / self.period_s + 1e-9))]
         return [sun, *self._ephemeris.enu(times)] if times else [sun]
 
+    def _storm_decision_due(self):
+        """Whether the storm needs a decision even without a fresh sun."""
+        if self.schedule is None:
+            return False
+        latched = self.schedule.scheduler.storm_latched
+        return latched or latched != self._storm_decided
+
     def _decide(self):
+        """Decide every panel's closure; without a fresh sun only for the storm (others hold)."""
         now = self._now_s()
         sun = self._fresh(self._sun, self._value('sun_timeout_s'))
-        if now <= 0.0 or sun is None:
+        if now <= 0.0 or (sun is None and not self._storm_decision_due()):
             return
-        if self.schedule is None:
-            self.schedule = FacadeSchedule(self.facade, start_s=now, table=self._table)
-            self._last_decision_s = now
-        if now < self._last_decision_s:
+        self._ensure_schedule(now)
+        if now < max(self._last_decision_s, self.schedule.scheduler.storm_time_s):
             return
         faulted = [self._faulted[p] for p in self.facade.panel_ids]
-        weather_timeout = self._value('weather_timeout_s')
-        result = self.schedule.step(now, self._sun_window(now, sun),
-                                    dni_w_m2=self._fresh(self._dni, weather_timeout),
-                                    wind_m_s=self._fresh(self._wind, weather_timeout),
-                                    faulted=faulted)
+        result = self.schedule.step(
+            now, None if sun is None else self._sun_window(now, sun),
+            dni_w_m2=self._fresh(self._dni, self._value('weather_timeout_s')), faulted=faulted)
         self._last_decision_s = now
+        self._storm_decided = self.schedule.scheduler.storm_latched
+        self._sun_decided = self._sun_decided or sun is not None
         self.last_result, self.commanded = result, result.closure
         self.decisions += 1
         self.air_used_nl += result.air_used_nl
@@ -236,10 +314,16 @@ class CoordinatorNode(Node):
             level, message = diagnostics.WARN, 'sun vector stale: holding the schedule'
         values = {'decisions': self.decisions, 'air_budget_used_nl': f'{self.air_used_nl:.1f}',
                   'faulted_panels': sum(self._faulted.values()),
-                  'rejected_inputs': sum(self.rejected.values())}
+                  'rejected_inputs': sum(self.rejected.values()),
+                  'overrides_refused_in_storm': self.overrides_refused_in_storm}
         if self.schedule is not None:
             scheduler = self.schedule.scheduler
+            now = self._now_s()
+            wind = scheduler.wind_m_s(now) if now >= scheduler.storm_time_s else None
+            due = scheduler.storm_due_s
             values.update(storm_latched=scheduler.storm_latched,
+                          wind_m_s='stale' if wind is None else f'{wind:.1f}',
+                          storm_change_due_in_s='none' if due is None else f'{due - now:.1f}',
                           mean_commanded_closure=f'{scheduler.commanded_closure.mean():.3f}')
             if scheduler.storm_latched:
                 level, message = diagnostics.WARN, 'storm: panels at the storm position'

@@ -5,8 +5,8 @@ import copy
 import numpy as np
 import pytest
 
-from flectofold_model.scheduling.scheduler import (Reason, Scheduler, ScheduleResult,
-                                                   SchedulerParameters)
+from flectofold_model.scheduling.scheduler import (OverrideRefused, Reason, Scheduler,
+                                                   ScheduleResult, SchedulerParameters)
 
 #: Midnight UTC at the start of a day, so tests can cross into the next one on purpose.
 DAY_S = 20000 * 86400.0
@@ -278,7 +278,10 @@ def run_random(seed):
     outputs = []
     for now in np.arange(1.0, 300.0, 2.0):
         if now == 101.0:
-            scheduler.set_override(0.6, DAY_S + now, zone=2, duration_s=60.0)
+            try:
+                scheduler.set_override(0.6, DAY_S + now, zone=2, duration_s=60.0)
+            except OverrideRefused:  # in a storm
+                outputs.append((np.full(50, np.nan), ['REFUSED'], None, None))
         result = scheduler.step(DAY_S + now, rng.random(50), wind_m_s=rng.uniform(0.0, 12.0),
                                 dni_w_m2=rng.uniform(50.0, 200.0), faulted=rng.random(50) < 0.05)
         outputs.append((result.closure, reasons(result), result.filling, result.tokens_nl))

@@ -1,0 +1,146 @@
+"""The storm latch: timestamped gust samples in, latched or not out, with hysteresis.
+
+A :class:`StormLatch` decides from sparse wind samples when a facade goes to its storm
+position and when it may come back. The rule (speeds in m/s, times in s):
+
+* **Sample and hold.** A sample stands for the wind from its arrival until the next sample,
+  or until it is older than ``stale_s`` (the weather timeout), whichever comes first. A gust
+  sampled once therefore counts for as long as nothing newer says otherwise, but never longer
+  than ``stale_s``; wind that is no longer known is neither above nor below any threshold.
+* **Trip.** The wind must count as above ``wind_on_m_s`` (strictly) without a break for
+  ``storm_on_delay_s``. The trip timer starts at the *arrival* of the first sample above; a
+  sample at or below ``wind_on_m_s``, or the held sample going stale, stops it. The latch
+  trips at the timer's start plus ``storm_on_delay_s`` exactly, whether or not a sample
+  arrives then: a caller evaluates :meth:`StormLatch.advance` at :attr:`StormLatch.due_s`
+  (or on a short timer while one is due) and at each sample.
+* **Release.** Likewise below ``wind_off_m_s`` (strictly) for ``storm_off_delay_s``. A
+  sample between the two thresholds while latched keeps the latch and restarts the release
+  timer (hysteresis: only a calm that lasts the whole hold releases); stale wind never
+  releases.
+* A sample that arrives at the very instant a timer ends is taken first: the held sample
+  covers the time from its own arrival up to, not including, the next one's.
+
+With the defaults (10 m/s for 5 s, 7 m/s for 900 s) and a 1 Hz anemometer the latch trips
+5 s after the first sample above 10 m/s if every later one stays above, and releases 900 s
+after the first sample of a calm below 7 m/s that no sample at or above 7 m/s interrupts.
+"""
+
+import math
+
+import numpy as np
+
+from flectofold_model._validate import in_range, real_scalar
+
+
+class StormLatch:
+    """The storm latch of a facade, evaluated at sample arrivals and at chosen instants.
+
+    Parameters
+    ----------
+    parameters : SchedulerParameters
+        Its ``wind_on_m_s``, ``wind_off_m_s``, ``storm_on_delay_s`` and ``storm_off_delay_s``.
+    stale_s : float
+        A sample older than this no longer counts [s], ``> 0``.
+    latched : bool
+        State to start with.
+    start_s : float
+        Clock at construction [s]; no sample or evaluation may be earlier.
+    """
+
+    def __init__(self, parameters, stale_s=60.0, latched=False, start_s=0.0):
+        self.parameters = parameters
+        self.stale_s = real_scalar('stale_s', stale_s)
+        if not self.stale_s > 0.0:
+            raise ValueError(f'stale_s must be positive, got {self.stale_s:g} s')
+        self._latched = bool(latched)
+        self._now_s = real_scalar('start_s', start_s)
+        self._wind_m_s = None
+        self._sample_s = -math.inf
+        self._run_start_s = None
+        self.changed_s = None
+        """Instant of the last trip or release [s]; None before the first."""
+
+    @property
+    def latched(self):
+        """Whether the latch is set."""
+        return self._latched
+
+    @property
+    def now_s(self):
+        """Latest instant the latch was evaluated at [s]."""
+        return self._now_s
+
+    @property
+    def run_start_s(self):
+        """Start of the pending trip (or release, while latched) timer [s]; None if none."""
+        return self._run_start_s
+
+    @property
+    def due_s(self):
+        """Instant the latch trips (or releases) if the held sample stays the last [s].
+
+        None while no timer runs, or when the held sample goes stale before the hold ends.
+        """
+        if self._run_start_s is None:
+            return None
+        due = self._run_start_s + self._delay_s()
+        return due if due <= self._sample_s + self.stale_s else None
+
+    def wind_m_s(self, now_s):
+        """Return the held sample at ``now_s`` [m/s]; None if there is none or it is stale."""
+        if self._wind_m_s is None or now_s - self._sample_s > self.stale_s:
+            return None
+        return self._wind_m_s
+
+    def advance(self, now_s):
+        """Evaluate the latch at ``now_s`` [s] on the held sample; return whether it changed."""
+        return self._advance(self._check_time('now_s', now_s), up_to=False)
+
+    def _advance(self, now, up_to):
+        """Evaluate at ``now``; ``up_to``: a new sample arrives then, the held one ends there."""
+        self._now_s = now
+        if self._run_start_s is None:
+            return False
+        due = self._run_start_s + self._delay_s()
+        held_until_s = self._sample_s + self.stale_s
+        if due <= held_until_s and (due < now if up_to else due <= now):
+            self._latched = not self._latched
+            self._run_start_s = None
+            self.changed_s = due
+            return True
+        if now > held_until_s:  # the sample went stale first: the wind is no longer known
+            self._run_start_s = None
+        return False
+
+    def sample(self, wind_m_s, at_s):
+        """Take a gust sample [m/s] that arrived at ``at_s`` [s]; return whether it changed."""
+        wind = real_scalar('wind_m_s', wind_m_s)
+        in_range('wind_m_s', np.asarray(wind), 0.0, math.inf, ' m/s', high_open=True)
+        at = self._check_time('at_s', at_s)
+        before = self._latched
+        self._advance(at, up_to=True)
+        if self._counts(wind):
+            if self._run_start_s is None:
+                self._run_start_s = self._now_s
+        else:
+            self._run_start_s = None
+        self._wind_m_s, self._sample_s = wind, self._now_s
+        self._advance(at, up_to=False)
+        return self._latched != before
+
+    def _counts(self, wind):
+        """Whether ``wind`` runs the timer of the current state."""
+        if self._latched:
+            return wind < self.parameters.wind_off_m_s
+        return wind > self.parameters.wind_on_m_s
+
+    def _delay_s(self):
+        parameters = self.parameters
+        return parameters.storm_off_delay_s if self._latched else parameters.storm_on_delay_s
+
+    def _check_time(self, name, value):
+        time_s = real_scalar(name, value)
+        if time_s < self._now_s:
+            raise ValueError(f'{name} must not go backwards: got {time_s:.3f} s after '
+                             f'{self._now_s:.3f} s')
+        return time_s
