@@ -96,8 +96,23 @@ WIND_SPEED = Topic(f'{FACADE_NAMESPACE}/wind_speed', 'std_msgs/msg/Float64')
 DNI = Topic(f'{FACADE_NAMESPACE}/dni', 'std_msgs/msg/Float64')
 OVERRIDE = Topic(f'{FACADE_NAMESPACE}/override', 'sensor_msgs/msg/JointState')
 OVERRIDE_CLEAR = Topic(f'{FACADE_NAMESPACE}/override_clear', 'std_msgs/msg/String')
-#: ``override`` and ``override_clear`` name this instead of a panel id for every panel.
+#: ``override``, ``override_clear`` and ``inject_fault`` name this instead of a panel id for
+#: every panel.
 ALL_PANELS = '*'
+#: Simulated panels only: a fault to inject into panels' circuits, or to take away
+#: (``fault_injection.md``): ``name`` the kind, ``hardware_id`` the panels, ``values`` the
+#: figures. Depth 100: a fault script may send many at one instant.
+INJECT_FAULT = Topic(f'{FACADE_NAMESPACE}/inject_fault', 'diagnostic_msgs/msg/DiagnosticStatus',
+                     Qos(depth=100))
+#: ``inject_fault`` kinds (``name``): the faults, then the two that take them away.
+INJECT_SENSOR_STUCK = 'sensor_stuck'
+INJECT_SENSOR_DROPOUT = 'sensor_dropout'
+INJECT_SENSOR_NOISE = 'sensor_noise'
+INJECT_LEAK = 'leak'
+INJECT_SUPPLY_LOSS = 'supply_loss'
+INJECT_FILL_VALVE_STUCK_OPEN = 'fill_valve_stuck_open'
+INJECT_SUPPLY_RESTORE = 'supply_restore'
+INJECT_RESTORE = 'restore'
 #: The facade-level state: reliable, volatile, keep last 100, so that a busy observer (a
 #: recorder writing, a bridge meshing) may trail by 10 s at 10 Hz before a state is lost.
 FACADE_STREAM = Qos(depth=100)
@@ -159,6 +174,7 @@ MONITOR_NODE = 'facade_monitor'
 RERUN_BRIDGE_NODE = 'rerun_bridge'
 RECORDER_NODE = 'bag_recorder'
 REPLAY_NODE = 'replay'
+FAULT_SCRIPT_NODE = 'fault_script'
 #: Namespace of the facade-wide nodes (coordinator, monitor, bridge).
 FACADE_NODE_NAMESPACE = FACADE_NAMESPACE
 
@@ -173,6 +189,13 @@ RECORDED_BY_DEFAULT = (FACADE_JOINT_STATES.name, PANEL_STATES.name, SUN.name, WI
 #: ``/diagnostics`` keys of a panel's status whose values are cumulative counts, for summaries.
 DIAGNOSTIC_FREE_AIR_NL = 'free_air_used_nl'
 DIAGNOSTIC_SETPOINTS_REJECTED = 'setpoints_rejected'
+#: ``/diagnostics`` key of a panel's status: the faults injected into it now (``none``).
+DIAGNOSTIC_INJECTED_FAULTS = 'injected_faults'
+#: ``/diagnostics`` keys of a panel process's status: fault requests it applied and refused,
+#: since start, and the reason of the last refusal.
+DIAGNOSTIC_FAULT_REQUESTS_APPLIED = 'fault_requests_applied'
+DIAGNOSTIC_FAULT_REQUESTS_REFUSED = 'fault_requests_refused'
+DIAGNOSTIC_LAST_FAULT_REFUSAL = 'last_fault_refusal'
 #: ``/diagnostics`` key of a panel's status: how far its simulation is behind the clock [s].
 DIAGNOSTIC_BEHIND_S = 'behind_by_s'
 #: ``/diagnostics`` key of a panel's status: states its loop kept but it did not publish,

@@ -369,6 +369,10 @@ class PneumaticPlant:
         """Make the cushion sensor of ``panels`` read NaN."""
         self.sensors.inject_dropout(panels)
 
+    def inject_sensor_noise(self, panels, noise_pa):
+        """Give the cushion sensor of ``panels`` noise of standard deviation ``noise_pa`` [Pa]."""
+        self.sensors.inject_noise(panels, noise_pa)
+
     def inject_leak(self, panels, conductance_m3_s_pa):
         """Add a leak to atmosphere of ``conductance_m3_s_pa`` [m^3/(s*Pa)] to ``panels``."""
         self.faults.inject_leak(panels, conductance_m3_s_pa)

@@ -11,7 +11,7 @@ import math
 
 import numpy as np
 
-from flectofold_model._validate import panel_mask
+from flectofold_model._validate import panel_mask, real_scalar
 
 
 class CushionSensors:
@@ -48,12 +48,12 @@ class CushionSensors:
         """Measured absolute cushion pressure, ``(N,)`` [Pa].
 
         The lagged true pressure plus ``sensor_offset_pa`` plus Gaussian noise of standard
-        deviation ``sensor_noise_pa``. A stuck sensor repeats its last reading exactly (before
-        the first read, the noise-free initial one); a dropped-out sensor reads NaN.
+        deviation :attr:`noise_pa` (``sensor_noise_pa`` unless raised). A stuck sensor repeats
+        its last reading exactly (before the first read, the noise-free initial one); a
+        dropped-out sensor reads NaN.
         """
-        parameters = self._parameters
-        noise = self._normals(self._count) * parameters.sensor_noise_pa
-        reading = self.lagged_pa + parameters.sensor_offset_pa + noise
+        noise = self._normals(self._count) * self.noise_pa
+        reading = self.lagged_pa + self._parameters.sensor_offset_pa + noise
         reading = np.where(self._stuck, self._last_reading_pa, reading)
         reading[self._dropout] = np.nan
         self._last_reading_pa = np.where(self._stuck, self._last_reading_pa, reading)
@@ -79,10 +79,13 @@ class CushionSensors:
         self._drawn = np.concatenate((np.ravel(draws), self._drawn))
 
     def kernel_view(self):
-        """Offset and noise [Pa], stuck and dropped-out masks, last readings (N,), live."""
+        """Offset, cushion noise (N,), stuck and dropped-out masks, last readings, supply noise.
+
+        Pressures in Pa; the arrays (N,) live.
+        """
         parameters = self._parameters
-        return (parameters.sensor_offset_pa, parameters.sensor_noise_pa, self._stuck,
-                self._dropout, self._last_reading_pa)
+        return (parameters.sensor_offset_pa, self.noise_pa, self._stuck, self._dropout,
+                self._last_reading_pa, parameters.sensor_noise_pa)
 
     def _normals(self, count):
         """Return the next ``count`` standard normal draws, those drawn ahead first."""
@@ -102,7 +105,16 @@ class CushionSensors:
         """Make the cushion sensor of ``panels`` read NaN."""
         self._dropout = self._dropout | panel_mask(panels, self._count)
 
+    def inject_noise(self, panels, noise_pa):
+        """Give the cushion sensor of ``panels`` noise of standard deviation ``noise_pa`` [Pa]."""
+        noise_pa = real_scalar('noise_pa', noise_pa)
+        if noise_pa < 0.0:
+            raise ValueError(f'noise_pa must not be negative, got {noise_pa:g} Pa')
+        self.noise_pa = np.where(panel_mask(panels, self._count), noise_pa, self.noise_pa)
+
     def clear_faults(self):
-        """Remove the sensor faults: the sensors read live values again."""
+        """Remove the sensor faults: the sensors read live values again, at their own noise."""
         self._stuck = np.zeros(self._count, dtype=bool)
         self._dropout = np.zeros(self._count, dtype=bool)
+        self.noise_pa = np.full(self._count, self._parameters.sensor_noise_pa)
+        """Standard deviation of each cushion sensor's noise (N,) [Pa]."""

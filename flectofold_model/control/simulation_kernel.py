@@ -45,9 +45,9 @@ def _active(state, i):
 def _read_sensors(run, noise, plant, sensors, measured, supply_reading):
     """Write every panel's cushion and supply readings, as the sensors give them."""
     lagged, supply_pa = plant[3], plant[7]
-    offset_pa, noise_pa, stuck, dropout, last_reading = sensors
+    offset_pa, noise_pa, stuck, dropout, last_reading, supply_noise_pa = sensors
     for i in range(measured.shape[0]):
-        reading = lagged[i] + offset_pa + noise[run, 0, i] * noise_pa
+        reading = lagged[i] + offset_pa + noise[run, 0, i] * noise_pa[i]
         if stuck[i]:
             reading = last_reading[i]
         if dropout[i]:
@@ -55,7 +55,7 @@ def _read_sensors(run, noise, plant, sensors, measured, supply_reading):
         if not stuck[i]:
             last_reading[i] = reading
         measured[i] = reading
-        supply_reading[i] = supply_pa[i] + noise[run, 1, i] * noise_pa
+        supply_reading[i] = supply_pa[i] + noise[run, 1, i] * supply_noise_pa
 
 
 @kernel
@@ -67,11 +67,11 @@ def run_periods(periods, max_runs, period_s, quiet_periods, setpoint, rested_set
     ``plant`` is the engine's arrays (pressure, free air, vented, lagged pressure, step length,
     leak conductance, fill valve jammed, supply pressure), ``engine`` its constants
     (conductances of the fill and vent valves, its cushion tables and rows, the circuit tuple,
-    sensor lag, tolerance),
-    ``sensors`` theirs (offset, noise, stuck, dropout, last reading); ``noise`` (max_runs, 2,
-    N) the standard normal draws of the cushion and supply sensors. ``fill`` and ``vent`` hold
-    the valve openings in force and are updated. Run ``r`` writes its span to ``spans[r]`` and
-    the state after it to row ``r + 1`` of ``measured``, ``closure`` and ``fold_angle_rad``.
+    sensor lag, tolerance), ``sensors`` theirs (offset, cushion noise (N,), stuck, dropout,
+    last reading, supply noise); ``noise`` (max_runs, 2, N) the standard normal draws of the
+    cushion and supply sensors. ``fill`` and ``vent`` hold the valve openings in force and are
+    updated. Run ``r`` writes its span to ``spans[r]`` and the state after it to row
+    ``r + 1`` of ``measured``, ``closure`` and ``fold_angle_rad``.
     Returns the runs made, the periods they covered, the quiet spans among them and the plant
     steps accepted and rejected.
     """

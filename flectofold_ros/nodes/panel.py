@@ -6,9 +6,10 @@ drives the ROS side from one timer (:class:`PanelProcess`): each tick it runs th
 the clock, then publishes. Each panel keeps its own node (:class:`PanelNode`) with its topics
 and service; what costs with the panel count is done once per process: the timer, the clock,
 ``/diagnostics`` (one array of every panel's status), the facade-level state topics
-(``/facade/joint_states``, ``/facade/panel_states``) and the parameters (on the process's
-settings node). A panel's own state topics go out at the full rate while its loop moves it,
-and at a heartbeat at rest. Topics, parameters, QoS and when each is published:
+(``/facade/joint_states``, ``/facade/panel_states``), the fault injection of simulated panels
+(``/facade/inject_fault``, ``msg_docs/fault_injection.md``) and the parameters (on the
+process's settings node). A panel's own state topics go out at the full rate while its loop
+moves it, and at a heartbeat at rest. Topics, parameters, QoS and when each is published:
 ``msg_docs/panel_node.md`` and ``msg_docs/facade_state.md``.
 """
 
@@ -30,19 +31,24 @@ from std_msgs.msg import Float64, String
 from flectofold_model.control import (compile_kernels, ControllerParameters, facade_loops, Fault,
                                       PublishDecimator, SafeAction, SafeBehaviour, SetpointGuard,
                                       SetpointState)
+from flectofold_model.control.hardware import SimulatedCushions
 from flectofold_model.control.panel_loops import LoopSample, panel_indices
 from flectofold_model.facade import DEFAULT_FACADE, load_facade
 from flectofold_ros import contract, diagnostics, panel_states
+from flectofold_ros.fault_injection import FaultInjector, FaultRequestError, parse_request
 from flectofold_ros.interfaces import publisher, service, subscription
 from flectofold_ros.parameters import choice, declare_all, double, string
 from flectofold_ros.runner import Program, run_nodes
 
+#: The cushion drivers there are (``hardware``): a driver for real valves adds its name here
+#: and its construction in :func:`build_loops`.
+DRIVERS = ('simulated',)
 #: name -> Spec. The loop settings (read-only) must agree between the panel nodes of one
 #: process, since they share one vectorised loop.
 PARAMETERS = {
     'panel_id': string('', 'Panel id rNNcNN; empty: the last token of the namespace'),
     'facade_file': string('', 'Facade description YAML; empty: the embedded demonstrator'),
-    'hardware': choice('simulated', 'Cushion driver', ['simulated']),
+    'hardware': choice('simulated', 'Cushion driver', DRIVERS),
     'control_period_s': double(0.1, 'Pressure loop period [s]', 0.01, 1.0),
     'control.time_constant_s': double(
         0.4, 'Closed-loop time constant [s], at least twice control_period_s', 0.02, 10.0),
@@ -170,10 +176,12 @@ class PanelProcess:
 
     ``settings`` is the node whose parameters the process runs with (and whose clock it
     reads); ``panels`` the :class:`PanelNode` objects, in the order of ``loops``' rows;
-    ``positions_enu`` their origins in the site's frame (N, 3) [m].
+    ``positions_enu`` their origins in the site's frame (N, 3) [m]; ``facade_ids`` every
+    panel id of the facade (a fault request naming another is refused; default: the
+    process's).
     """
 
-    def __init__(self, settings, panels, loops, positions_enu):
+    def __init__(self, settings, panels, loops, positions_enu, facade_ids=None):
         self.settings, self.panels, self.loops = settings, panels, loops
         value = self._value
         count = len(panels)
@@ -214,6 +222,7 @@ class PanelProcess:
         self._diagnostics = publisher(settings, contract.DIAGNOSTICS)
         for index, panel in enumerate(panels):
             panel.attach(self, index)
+        self._start_fault_injection(facade_ids)
         settings.add_post_set_parameters_callback(self._apply_parameters)
         settings.create_timer(self.control_period_s, self._tick)
         settings.create_timer(value('diagnostics_period_s'), self._report,
@@ -236,6 +245,47 @@ class PanelProcess:
                     guard.safe_behaviour = SafeBehaviour(parameter.value)
             if parameter.name == 'fault_action':
                 self.loops.set_safe_action(SafeAction(parameter.value))
+
+    # -- fault injection (simulated cushions only) -----------------------------------------
+
+    def _start_fault_injection(self, facade_ids):
+        ids = [panel.panel_id for panel in self.panels]
+        self._facade_ids = list(facade_ids) if facade_ids is not None else ids
+        driver = self.loops.driver
+        self.injector = FaultInjector(driver.plant, ids) \
+            if isinstance(driver, SimulatedCushions) else None
+        self.fault_requests_applied, self.fault_requests_refused = 0, 0
+        self._fault_refusals_since_report, self.last_fault_refusal = 0, ''
+        subscription(self.settings, contract.INJECT_FAULT, self._on_inject_fault)
+
+    def _on_inject_fault(self, message):
+        try:
+            if self.injector is None:
+                raise FaultRequestError(
+                    f'hardware {self._value("hardware")!r} takes no injected faults: only '
+                    f'simulated cushions do')
+            request = parse_request(message.name, message.hardware_id,
+                                    ((kv.key, kv.value) for kv in message.values),
+                                    self._facade_ids)
+            indices = self.injector.apply(request, self._now_s())
+        except FaultRequestError as error:
+            self.fault_requests_refused += 1
+            self._fault_refusals_since_report += 1
+            self.last_fault_refusal = str(error)
+            self.settings.get_logger().warning(f'refused fault request: {error}',
+                                               throttle_duration_sec=1.0)
+            return
+        if indices.size:  # else the panels are another process's
+            self.fault_requests_applied += 1
+            self.settings.get_logger().warning(
+                f'fault request: {request.describe()} ({indices.size} panel(s) here)')
+
+    def _end_timed_faults(self, now_s):
+        for panel_id, kind in self.injector.expire(now_s) if self.injector else ():
+            self.settings.get_logger().warning(f'injected {kind} on {panel_id} ended')
+
+    def _injected(self, index):
+        return self.injector.injected(index) if self.injector is not None else 'none'
 
     # -- what the panels' nodes hand over ---------------------------------------------------
 
@@ -272,6 +322,8 @@ class PanelProcess:
             self._status[index] = _STATUS_CODE[state.value]
         self.loops.set_setpoints(self._setpoints)
         advance = self.loops.advance_to(now)
+        # after the loop ran up to now: a timed fault lasts at least as long as asked
+        self._end_timed_faults(now)
         if advance.skipped_s > 0.0:
             self.settings.get_logger().warning(
                 f'the clock jumped: {advance.skipped_s:.0f} s were not simulated (the plant '
@@ -393,6 +445,9 @@ class PanelProcess:
         if loops.behind_s > OVERLOADED_S and level == diagnostics.OK:
             level, message = diagnostics.WARN, (
                 f'overloaded: the simulation is {loops.behind_s:.1f} s behind the clock')
+        injected = self._injected(index)
+        if injected != 'none' and level == diagnostics.OK:
+            level, message = diagnostics.WARN, f'simulated fault injected: {injected}'
         if fault is not Fault.NONE:
             level, message = diagnostics.ERROR, f'circuit fault: {fault.value}'
         closure, fold_angle = loops._current_feedback()
@@ -405,6 +460,7 @@ class PanelProcess:
             contract.DIAGNOSTIC_SETPOINTS_REJECTED: guard.rejected,
             'last_rejection': guard.last_rejection,
             contract.DIAGNOSTIC_FREE_AIR_NL: float(loops.free_air_used_nl[index]),
+            contract.DIAGNOSTIC_INJECTED_FAULTS: injected,
         }
         return diagnostics.status(node, level, 'pressure loop', node.panel_id, message, figures)
 
@@ -424,10 +480,18 @@ class PanelProcess:
             'sim_time_skipped_s': self.loops.skipped_s,
             'loop_time_s': self.loops.time_s if self.loops.time_s is not None else math.nan,
             contract.DIAGNOSTIC_BEHIND_S: self.loops.behind_s,
+            contract.DIAGNOSTIC_FAULT_REQUESTS_APPLIED: self.fault_requests_applied,
+            contract.DIAGNOSTIC_FAULT_REQUESTS_REFUSED: self.fault_requests_refused,
+            contract.DIAGNOSTIC_LAST_FAULT_REFUSAL: self.last_fault_refusal,
         }
-        return diagnostics.status(self.settings, diagnostics.OK, 'panel process',
-                                  self.settings.get_name(), f'{len(self.panels)} panels',
-                                  figures)
+        level, message = diagnostics.OK, f'{len(self.panels)} panels'
+        if self._fault_refusals_since_report:
+            level, message = diagnostics.WARN, (
+                f'{message}; refused {self._fault_refusals_since_report} fault request(s): '
+                f'{self.last_fault_refusal}')
+            self._fault_refusals_since_report = 0
+        return diagnostics.status(self.settings, level, 'panel process',
+                                  self.settings.get_name(), message, figures)
 
     def close(self):
         """Shut the valves: the panels keep their air (a held position) until vented."""
@@ -439,8 +503,13 @@ def _stamp(time_s):
 
 
 def build_loops(node, panel_ids, seed=0):
-    """Build the shared loops from ``node``'s settings; return them and the panels' origins."""
+    """Build the shared loops from ``node``'s settings.
+
+    Return them, the panels' origins in the site's frame (N, 3) [m] and the facade's ids.
+    """
     settings = {name: node.get_parameter(name).value for name in LOOP_SETTINGS}
+    if settings['hardware'] != 'simulated':  # declare_all refused it: no other driver exists
+        raise ValueError(f'hardware {settings["hardware"]!r}: no such cushion driver')
     facade = load_facade(settings['facade_file'] or DEFAULT_FACADE)
     parameters = ControllerParameters(
         max_gauge_pa=settings['max_gauge_pressure_pa'],
@@ -452,7 +521,7 @@ def build_loops(node, panel_ids, seed=0):
                          max_call_s=MAX_CALL_S)
     compile_kernels()  # here, before the panels report ready, not in their first tick
     origins = facade.origin_m[panel_indices(facade, panel_ids)] @ facade.facade_to_enu.T
-    return loops, origins
+    return loops, origins, facade.panel_ids
 
 
 class PanelProgram(Program):
@@ -489,14 +558,15 @@ def start_panels(panel_ids=None, group_name=None, seed=0, teardown=True, **node_
             nodes.append(Node(group_name, namespace=contract.FACADE_NODE_NAMESPACE,
                               **node_kwargs))
             declare_all(nodes[0], PARAMETERS)
+            context = {'context': node_kwargs['context']} if 'context' in node_kwargs else {}
             for panel_id in panel_ids:
-                nodes.append(PanelNode(panel_id, settings=False))
+                nodes.append(PanelNode(panel_id, settings=False, **context))
             settings, panels = nodes[0], nodes[1:]
         ids = [panel.panel_id for panel in panels]
         if len(set(ids)) != len(ids):
             raise ValueError(f'a panel is named twice in {", ".join(ids)}')
-        loops, origins = build_loops(settings, ids, seed=seed)
-        process = PanelProcess(settings, panels, loops, origins)
+        loops, origins, facade_ids = build_loops(settings, ids, seed=seed)
+        process = PanelProcess(settings, panels, loops, origins, facade_ids)
     except BaseException:
         for node in nodes:
             node.destroy_node()

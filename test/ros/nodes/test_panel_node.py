@@ -227,3 +227,51 @@ def test_the_example_parameter_file_starts_a_panel():
     finally:
         graph.close()
     assert code == 0, output
+
+
+HARDWARE_FILE = '/**:\n  ros__parameters:\n    hardware: real\n'
+
+
+@pytest.mark.parametrize('executable, arguments', [
+    ('panel_node', ['-r', f'__ns:={NS}', '-p', 'hardware:=real']),
+    ('panel_group', ['-p', 'hardware:=real']),
+    ('panel_group', ['--params-file', 'HARDWARE_FILE']),
+    ('panel_group', ['-p', 'hardware:=Simulated']),
+])
+def test_a_cushion_driver_that_does_not_exist_is_refused_at_start(executable, arguments,
+                                                                  tmp_path):
+    params = tmp_path / 'hardware.yaml'
+    params.write_text(HARDWARE_FILE)
+    arguments = [str(params) if a == 'HARDWARE_FILE' else a for a in arguments]
+    before = ['--panels', PANEL] if executable == 'panel_group' else []
+    graph = Graph(domain_for(19))
+    try:
+        process = graph.start(executable, *before, '--ros-args', *arguments)
+        code, output = process.wait(timeout=30.0), process.stdout.read()
+    finally:
+        graph.close()
+    assert code == 2, output
+    lines = output.strip().splitlines()
+    assert len(lines) == 1 and 'Traceback' not in output, output
+    assert lines[0].startswith(f'{executable}: parameter hardware=') and \
+        lines[0].endswith('must be one of simulated'), output
+
+
+@pytest.mark.parametrize('group_name', [None, 'panel_group_test'])
+def test_the_cushion_driver_cannot_be_changed_at_run_time(group_name):
+    from rclpy.parameter import Parameter
+
+    from flectofold_ros.nodes.panel import start_panels
+    graph = Graph(domain_for(19))
+    try:
+        program = start_panels([PANEL], group_name, context=graph.context)
+        settings = program.nodes[0]
+        for value in ('real', 'simulated'):
+            result = settings.set_parameters([Parameter('hardware', value=value)])[0]
+            assert not result.successful and 'hardware' in result.reason, result
+        assert settings.get_parameter('hardware').value == 'simulated'
+        program.process.close()
+        for node in program.nodes:
+            node.destroy_node()
+    finally:
+        graph.close()
