@@ -43,6 +43,7 @@ setup(
             'rerun_bridge = flectofold_ros.executables:rerun_bridge',
             'bag_recorder = flectofold_ros.executables:bag_recorder',
             'replay = flectofold_ros.executables:replay',
+            'bag_reindex = flectofold_ros.executables:bag_reindex',
         ],
     },
 )

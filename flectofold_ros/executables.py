@@ -27,6 +27,7 @@ EXECUTABLES = {
     'rerun_bridge': ('flectofold_ros.nodes.rerun_bridge', 0),
     'bag_recorder': ('flectofold_ros.nodes.bag_recorder', 0),
     'replay': ('flectofold_ros.commands.replay', 0),
+    'bag_reindex': ('flectofold_ros.commands.bag_reindex', 130),
 }
 
 
@@ -76,3 +77,4 @@ facade = _entry_point('facade')
 rerun_bridge = _entry_point('rerun_bridge')
 bag_recorder = _entry_point('bag_recorder')
 replay = _entry_point('replay')
+bag_reindex = _entry_point('bag_reindex')

@@ -5,8 +5,10 @@ Topics matching ``topics`` (default everything under ``/facade``, ``/diagnostics
 ``/clock``) are found as they appear and subscribed with ``raw=True``: the CDR bytes go to the
 bag untouched, stamped with the node's ROS time (the simulated time under ``use_sim_time``).
 Writing runs on its own thread behind a bounded queue; the bag rotates by size or duration and
-stays valid after Ctrl-C or SIGTERM. Every message the recorder could not keep is counted and
-reported. Parameters and the bag layout: ``msg_docs/bag_recorder.md``.
+stays valid after Ctrl-C or SIGTERM. Every ``flush_period_s`` of wall time the messages written
+are handed to the operating system, so that after a SIGKILL ``bag_reindex`` recovers all but
+about that last period. Every message the recorder could not keep is counted and reported.
+Parameters, the bag layout and the bounds: ``msg_docs/bag_recorder.md``.
 """
 
 from collections import Counter
@@ -28,6 +30,11 @@ from flectofold_ros.recording.bag_segments import BagError, SegmentedBagWriter
 from flectofold_ros.runner import Program, run_nodes
 
 QUEUE_DEPTH = 100000
+#: Default rotation: a segment closes (and becomes directly readable after a SIGKILL) after
+#: this much ROS time or this many MB of messages, whichever comes first.
+MAX_SEGMENT_S, MAX_SEGMENT_MB = 300.0, 16.0
+#: Default wall time between flushes: the bound of what ``bag_reindex`` cannot recover [s].
+FLUSH_PERIOD_S = 1.0
 USAGE = 'bag_recorder [--ros-args -p output:=DIR -p name:=value ...]'
 
 #: name -> Spec.
@@ -36,10 +43,12 @@ PARAMETERS = {
                      'in the working directory'),
     'topics': strings(contract.RECORDED_BY_DEFAULT, 'Topics to record: exact names, or '
                       'patterns with * (one level) and /** (everything below)'),
-    'max_segment_mb': double(256.0, 'Start a new bag file after this many MB; 0: never',
-                             0.0, 1e6),
-    'max_segment_s': double(0.0, 'Start a new bag file after this much ROS time [s]; 0: never',
-                            0.0, 1e7),
+    'max_segment_mb': double(MAX_SEGMENT_MB, 'Start a new bag file after this many MB; 0: '
+                             'never', 0.0, 1e6),
+    'max_segment_s': double(MAX_SEGMENT_S, 'Start a new bag file after this much ROS time '
+                            '[s]; 0: never', 0.0, 1e7),
+    'flush_period_s': double(FLUSH_PERIOD_S, 'Wall time between hand-overs of the written '
+                             'messages to the operating system [s]', 0.05, 60.0),
     'discovery_period_s': double(0.5, 'Wall time between looks for new topics [s]', 0.05,
                                  60.0),
     'diagnostics_period_s': double(1.0, 'Period of /diagnostics, wall clock [s]', 0.1, 60.0),
@@ -80,6 +89,9 @@ class BagRecorder(Node):
         self.patterns = check_patterns(self._value('topics'))
         output = self._value('output') or \
             f'flectofold_{datetime.now().strftime("%Y%m%d_%H%M%S")}'
+        self._flush_period_s = self._value('flush_period_s')
+        # add_topic (executor thread) and write/flush (writer thread) share the open segment.
+        self._writer_lock = threading.Lock()
         self.writer = SegmentedBagWriter(
             output, max_segment_bytes=self._value('max_segment_mb') * 1e6 or None,
             max_segment_s=self._value('max_segment_s') or None)
@@ -128,7 +140,8 @@ class BagRecorder(Node):
         latched, reliable = offered(publishers)
         try:
             message_class(msgtype)
-            self.writer.add_topic(topic, msgtype, latched=latched)
+            with self._writer_lock:
+                self.writer.add_topic(topic, msgtype, latched=latched)
         except (ValueError, BagError) as error:
             self._skip(topic, str(error))
             return
@@ -174,17 +187,33 @@ class BagRecorder(Node):
     # -- writing ----------------------------------------------------------------------------
 
     def _write_loop(self):
+        next_flush = time.monotonic() + self._flush_period_s
         while True:
-            item = self._queue.get()
+            try:
+                item = self._queue.get(timeout=max(0.0, next_flush - time.monotonic()))
+            except queue.Empty:
+                item = ()
             if item is None:
                 return
+            if time.monotonic() >= next_flush:
+                self._locked(self.writer.flush)
+                next_flush = time.monotonic() + self._flush_period_s
+            if not item:
+                continue
             if self.error is not None:
                 self.dropped_queue += 1
                 continue
-            try:
-                self.writer.write(*item)
-            except BagError as error:
-                self.error = str(error)
+            self._locked(self.writer.write, *item)
+
+    def _locked(self, method, *arguments):
+        """Call a writer method under the lock; a BagError stops the recording."""
+        if self.error is not None:
+            return
+        try:
+            with self._writer_lock:
+                method(*arguments)
+        except BagError as error:
+            self.error = str(error)
 
     def close(self):
         """Write what is queued (early messages too), close the bag; return its summary."""
@@ -196,7 +225,8 @@ class BagRecorder(Node):
         self._queue.put(None)
         self._thread.join()
         try:
-            self.writer.close()
+            with self._writer_lock:
+                self.writer.close()
         except BagError as error:
             self.error = self.error or str(error)
         return self.summary()
@@ -204,10 +234,12 @@ class BagRecorder(Node):
     def figures(self):
         wall_s = max(time.monotonic() - self.started, 1e-9)
         received = sum(self.received.values())
+        with self._writer_lock:
+            written, segments = self.writer.message_count, len(self.writer.segments)
         return {'topics': len(self._recorded), 'received': received,
-                'written': self.writer.message_count, 'messages_per_s': received / wall_s,
+                'written': written, 'messages_per_s': received / wall_s,
                 'bytes_written': self.writer.bytes_written,
-                'segments': len(self.writer.segments), 'dropped_queue': self.dropped_queue,
+                'segments': segments, 'dropped_queue': self.dropped_queue,
                 'lost_in_transport': self.lost_in_transport,
                 'error': self.error or ''}
 

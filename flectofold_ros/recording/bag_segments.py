@@ -33,15 +33,21 @@ working file (``.open_segment.mcap``); readers use the bag's ``metadata.yaml`` i
 
 Crash behaviour
 ---------------
-rosbags' MCAP writer writes the summary and footer only when a file is closed, so the open
-segment is unreadable after a hard kill (SIGKILL, ``os._exit``, power cut). Everything in closed
-segments stays readable with ``rosbags.rosbag2.Reader`` and ``rosbags.highlevel.AnyReader``; a
-crash therefore loses at most the open segment, i.e. up to ``max_segment_bytes`` or
-``max_segment_s`` of data. The partial file stays in ``.open_segment/`` (the complete chunks in it
-can be salvaged with an MCAP stream reader). A crash between moving a segment and rewriting
-``metadata.yaml`` leaves an unlisted ``<name>_<i>.mcap`` that readers ignore. After an ``OSError``
-while writing (a full disk, say) the writer aborts the open segment the same way and refuses
-further writes; the bag keeps its closed segments.
+rosbags' MCAP writer writes the summary and footer only when a file is closed, so rosbags'
+reader cannot open the open segment after a hard kill (SIGKILL, ``os._exit``, power cut).
+Everything in closed segments stays readable with ``rosbags.rosbag2.Reader`` and
+``rosbags.highlevel.AnyReader``, since ``metadata.yaml`` lists each as it closes: at most the
+open segment, i.e. up to ``max_segment_bytes`` or ``max_segment_s`` of data, is not directly
+readable. Its complete chunks are in the partial file left in ``.open_segment/``, and
+:func:`flectofold_ros.recording.recovery.reindex` (``bag_reindex``) recovers them;
+:meth:`SegmentedBagWriter.flush` closes the chunk being filled and hands it to the operating
+system, so what was written before the last flush is recoverable. A crash between moving a
+segment and rewriting ``metadata.yaml`` leaves an unlisted ``<name>_<i>.mcap`` that readers
+ignore and ``reindex`` lists. After an ``OSError`` while writing (a full disk, say) the writer
+aborts the open segment the same way and refuses further writes; the bag keeps its closed
+segments. :func:`check_bag` tells a complete bag from one that needs ``bag_reindex``. The
+writer holds an exclusive ``flock`` on the bag directory until it is closed
+(:func:`lock_bag`), so that ``reindex`` does not touch a bag being written.
 
 Rotation
 --------
@@ -58,6 +64,7 @@ bags.
 """
 
 import errno
+import fcntl
 import heapq
 import math
 import os
@@ -70,18 +77,24 @@ from rosbags.interfaces import (Connection, ConnectionExtRosbag2, Qos, QosDurabi
                                 QosLiveliness, QosReliability, QosTime)
 from rosbags.rosbag2 import Reader, StoragePlugin, Writer
 from rosbags.rosbag2.metadata import dump_qos_v9
+from rosbags.rosbag2.storage_mcap import McapWriter
 from rosbags.typesys import get_typestore, Stores
 from ruamel.yaml import YAML
+import yaml
 
 BAG_VERSION = 9
 """rosbag2 metadata version written (Jazzy's)."""
 WORKING_DIR = '.open_segment'
+METADATA = 'metadata.yaml'
+"""The bag's metadata file."""
 """Name of the hidden working directory of the open segment inside the bag."""
 QOS_DEPTH = 10
 """History depth of the offered QoS recorded per topic [messages]."""
 MCAP_MESSAGE_OVERHEAD = 47
 """Bytes an MCAP file spends per message besides the payload: the message record's opcode,
 length, channel, sequence, log and publish time (31) and its message index entry (16) [bytes]."""
+
+_DUMPER = getattr(yaml, 'CSafeDumper', yaml.SafeDumper)
 
 PathLike = Union[str, 'os.PathLike[str]']
 Message = tuple[str, str, int, bytes]
@@ -91,13 +104,15 @@ class BagError(Exception):
     """A bag cannot be created, written or read; the message names the path or topic."""
 
 
-class _Topic(NamedTuple):
+class RecordedTopic(NamedTuple):
+    """A recorded topic: its message type and whether it is recorded as latched."""
+
     msgtype: str
     latched: bool
 
 
-class _Segment(NamedTuple):
-    """A closed segment as listed in metadata.yaml."""
+class Segment(NamedTuple):
+    """A closed segment as listed in metadata.yaml: times [ns], messages per topic."""
 
     file_name: str
     start_ns: int
@@ -185,9 +200,9 @@ class SegmentedBagWriter:
         self._max_s = _rotation_limit('max_segment_s', max_segment_s)
         self._path = Path(path)
         self._typestore = get_typestore(Stores.ROS2_JAZZY)
-        self._topics: dict[str, _Topic] = {}
+        self._topics: dict[str, RecordedTopic] = {}
         self._digests: dict[str, str] = {}
-        self._closed: list[_Segment] = []
+        self._closed: list[Segment] = []
         self._writer: Optional[Writer] = None
         self._connections: dict[str, Connection] = {}
         self._seg_counts: dict[str, int] = {}
@@ -197,7 +212,9 @@ class SegmentedBagWriter:
         self._bytes_written = 0
         self._failed: Optional[str] = None
         self._is_closed = False
+        self._lock_fd: Optional[int] = None
         _create_bag_dir(self._path)
+        self._lock_fd = lock_bag(self._path)
         self._guard_os('create metadata.yaml of', self._write_metadata)
         self._guard_os('open a segment in', self._open_segment)
 
@@ -255,7 +272,7 @@ class SegmentedBagWriter:
         if msgtype not in self._typestore.fielddefs:
             raise BagError(f'topic {name}: message type {msgtype!r} is unknown to the '
                            'ROS 2 Jazzy typestore')
-        self._topics[name] = _Topic(msgtype, bool(latched))
+        self._topics[name] = RecordedTopic(msgtype, bool(latched))
         # metadata.yaml lists the topic when a segment closes: rewriting (and fsyncing) it
         # here cost ~90 ms per topic, which held up subscribing to a facade's 200 topics.
         self._guard_os(f'add topic {name} to', lambda: self._add_connection(name))
@@ -285,17 +302,34 @@ class SegmentedBagWriter:
             self._guard_os('rotate segment of', self._rotate)
         self._guard_os('write to', lambda: self._write(topic, t_ns, raw))
 
+    def flush(self) -> None:
+        """Hand every message written so far to the operating system, in complete MCAP chunks.
+
+        The open segment's writer collects messages in a chunk in memory (up to 1 MiB) and its
+        file buffer; this closes that chunk and flushes the buffer, so that a process killed
+        from now on (SIGKILL) leaves them in the unfinished file, where ``bag_reindex``
+        recovers them with a stream read. They become directly readable when the segment
+        closes. No fsync: the operating system writes the data out by itself (a power cut may
+        lose what it had not written yet). A no-op when nothing new was written.
+        """
+        self._check_writable()
+        if self._writer is not None and self._seg_start_ns is not None:
+            self._guard_os('flush', self._flush_chunk)
+
     def close(self) -> None:
         """Close the open segment, finalise metadata.yaml, remove the working directory.
 
-        Idempotent. An open segment without messages is removed rather than listed.
+        Idempotent. An open segment without messages is removed rather than listed. Releases
+        the bag's lock (:func:`lock_bag`).
         """
         if self._is_closed:
             return
         self._is_closed = True
-        if self._failed is not None:
-            return
-        self._guard_os('close', self._finish)
+        try:
+            if self._failed is None:
+                self._guard_os('close', self._finish)
+        finally:
+            self._unlock()
 
     def __enter__(self) -> 'SegmentedBagWriter':
         return self
@@ -368,6 +402,16 @@ class SegmentedBagWriter:
         self._seg_start_ns = min(self._seg_start_ns, t_ns)
         self._seg_end_ns = max(self._seg_end_ns, t_ns)
 
+    def _flush_chunk(self) -> None:
+        assert self._writer is not None
+        storage = self._writer.storage
+        # rosbags (0.11.9) has no public flush; its MCAP storage closes a chunk like this when
+        # the chunk reaches 1 MiB. A chunk with only channel records is left to grow.
+        assert isinstance(storage, McapWriter), 'the segments are MCAP'
+        if storage.chunk.msgs:
+            storage.close_chunk()
+        storage.bio.flush()
+
     def _rotate(self) -> None:
         self._close_segment()
         self._open_segment()
@@ -392,8 +436,8 @@ class SegmentedBagWriter:
             os.fsync(stream.fileno())
         os.replace(source, self._path / file_name)
         _fsync_dir(self._path)
-        self._closed.append(_Segment(file_name, self._seg_start_ns, self._seg_end_ns,
-                                     dict(self._seg_counts)))
+        self._closed.append(Segment(file_name, self._seg_start_ns, self._seg_end_ns,
+                                    dict(self._seg_counts)))
         self._seg_counts = {}
         self._seg_start_ns = None
         self._write_metadata()
@@ -421,52 +465,97 @@ class SegmentedBagWriter:
 
     def _write_metadata(self) -> None:
         """Rewrite metadata.yaml atomically to cover all closed segments."""
-        target = self._path / 'metadata.yaml'
-        temp = self._path / 'metadata.yaml.tmp'
-        with temp.open('w', encoding='utf8') as stream:
-            yaml = YAML(typ='safe')
-            yaml.default_flow_style = False
-            yaml.dump(self._metadata(), stream)
-            stream.flush()
-            os.fsync(stream.fileno())
-        os.replace(temp, target)
-        _fsync_dir(self._path)
+        write_metadata(self._path, self._closed, self._topics, self._digests)
 
-    def _metadata(self) -> dict:
-        """Build the rosbag2 metadata.yaml content of the closed segments."""
-        files = [_file_entry(segment) for segment in self._closed]
-        counts = self._closed_counts()
-        start = min((s.start_ns for s in self._closed), default=0)
-        end = max((s.end_ns for s in self._closed), default=0)
-        return {'rosbag2_bagfile_information': {
-            'version': BAG_VERSION,
-            'storage_identifier': 'mcap',
-            'relative_file_paths': [entry['path'] for entry in files],
-            'duration': {'nanoseconds': max(0, end - start)},
-            'starting_time': {'nanoseconds_since_epoch': start},
-            'message_count': sum(counts.values()),
-            'topics_with_message_count': [
-                {'topic_metadata': self._topic_metadata(name), 'message_count': counts[name]}
-                for name in self._topics],
-            'compression_format': '',
-            'compression_mode': '',
-            'files': files,
-            'custom_data': None,
-            'ros_distro': 'rosbags',
-        }}
-
-    def _topic_metadata(self, name: str) -> dict:
-        topic = self._topics[name]
-        return {
-            'name': name,
-            'type': topic.msgtype,
-            'serialization_format': 'cdr',
-            'offered_qos_profiles': dump_qos_v9([offered_qos(topic.latched)]),
-            'type_description_hash': self._digests.get(name, ''),
-        }
+    def _unlock(self) -> None:
+        fd, self._lock_fd = self._lock_fd, None
+        if fd is not None:
+            os.close(fd)
 
 
-def _file_entry(segment: _Segment) -> dict:
+def lock_bag(path: Path) -> Optional[int]:
+    """Take the exclusive lock of bag directory ``path``; return its descriptor.
+
+    The lock (``flock`` on the directory) tells a recorder and ``bag_reindex`` apart: it is
+    held while a :class:`SegmentedBagWriter` writes the bag and dropped by the kernel when the
+    process ends, SIGKILL included. Returns None on a file system without locks.
+
+    Raises
+    ------
+    BagError
+        Another process holds the lock: the bag is being written.
+    """
+    fd = os.open(path, os.O_RDONLY | os.O_DIRECTORY)
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except OSError as err:
+        os.close(fd)
+        if err.errno in (errno.EWOULDBLOCK, errno.EAGAIN):
+            raise BagError(f'bag {path} is being written by a running process') from err
+        return None
+    return fd
+
+
+def write_metadata(path: Path, segments: list[Segment], topics: dict[str, RecordedTopic],
+                   digests: dict[str, str]) -> None:
+    """Rewrite ``path/metadata.yaml`` atomically (temp file, fsync, rename) for ``segments``.
+
+    ``topics`` are all topics to list (count 0 where no segment has a message of them),
+    ``digests`` their type description hashes (RIHS01; missing: empty).
+    """
+    target = path / METADATA
+    temp = path / f'{METADATA}.tmp'
+    with temp.open('w', encoding='utf8') as stream:
+        # libyaml's emitter: ruamel's took 0.65 s CPU for the metadata of 800 segments, which
+        # is rewritten at every rotation; libyaml takes 0.07 s.
+        yaml.dump(_metadata(segments, topics, digests), stream, Dumper=_DUMPER,
+                  default_flow_style=False)
+        stream.flush()
+        os.fsync(stream.fileno())
+    os.replace(temp, target)
+    _fsync_dir(path)
+
+
+def _metadata(segments: list[Segment], topics: dict[str, RecordedTopic],
+              digests: dict[str, str]) -> dict:
+    """Build the rosbag2 metadata.yaml content of the closed segments."""
+    files = [_file_entry(segment) for segment in segments]
+    counts = dict.fromkeys(topics, 0)
+    for segment in segments:
+        for name, count in segment.counts.items():
+            counts[name] = counts.get(name, 0) + count
+    start = min((s.start_ns for s in segments), default=0)
+    end = max((s.end_ns for s in segments), default=0)
+    return {'rosbag2_bagfile_information': {
+        'version': BAG_VERSION,
+        'storage_identifier': 'mcap',
+        'relative_file_paths': [entry['path'] for entry in files],
+        'duration': {'nanoseconds': max(0, end - start)},
+        'starting_time': {'nanoseconds_since_epoch': start},
+        'message_count': sum(counts.values()),
+        'topics_with_message_count': [
+            {'topic_metadata': _topic_metadata(name, topic, digests.get(name, '')),
+             'message_count': counts[name]}
+            for name, topic in topics.items()],
+        'compression_format': '',
+        'compression_mode': '',
+        'files': files,
+        'custom_data': None,
+        'ros_distro': 'rosbags',
+    }}
+
+
+def _topic_metadata(name: str, topic: RecordedTopic, digest: str) -> dict:
+    return {
+        'name': name,
+        'type': topic.msgtype,
+        'serialization_format': 'cdr',
+        'offered_qos_profiles': dump_qos_v9([offered_qos(topic.latched)]),
+        'type_description_hash': digest,
+    }
+
+
+def _file_entry(segment: Segment) -> dict:
     """Build the ``files:`` entry of one closed segment."""
     return {
         'path': segment.file_name,
@@ -588,3 +677,126 @@ def _iterate(reader: Reader, conns: list[Connection],
                                key=lambda message: message[2])
     finally:
         reader.close()
+
+
+# -- checking ------------------------------------------------------------------------------------
+
+
+class BagCheck(NamedTuple):
+    """What :func:`check_bag` found in a bag directory.
+
+    ``complete``: metadata.yaml lists every segment file present, each opens with rosbags'
+    reader and holds the messages the metadata counts, and no unfinished segment is left.
+    """
+
+    path: Path
+    complete: bool
+    message_count: int
+    """Messages listed in metadata.yaml, all directly readable when ``complete`` [messages]."""
+    message_counts: dict[str, int]
+    """Listed messages per topic [messages]."""
+    files: list[str]
+    """Segment files listed in metadata.yaml."""
+    unfinished_segment: Optional[Path]
+    """The file of a segment that was never closed (the recording runs, or it was killed)."""
+    unfinished_bytes: int
+    """Size of ``unfinished_segment``, 0 if there is none [bytes]."""
+    unlisted_files: list[str]
+    """Segment files present but not listed in metadata.yaml."""
+    problems: list[str]
+    """Everything that makes the bag incomplete, one sentence each."""
+
+    def summary(self) -> str:
+        """One line: complete with its figures, or INCOMPLETE with the reasons and the fix."""
+        if self.complete:
+            return (f'bag {self.path}: complete, {self.message_count} messages in '
+                    f'{len(self.files)} file(s)')
+        return (f'bag {self.path}: INCOMPLETE: {"; ".join(self.problems)}; '
+                f'`bag_reindex {self.path}` recovers what is on disk')
+
+
+def check_bag(path: PathLike) -> BagCheck:
+    """Check whether the bag directory at ``path`` is complete; never raises for a bad bag.
+
+    Reads metadata.yaml and the summary of each segment file (not their messages), so it is
+    quick also for a long recording. Meant for after the recorder has stopped: while it runs,
+    its open segment makes the bag incomplete.
+    """
+    bag = Path(path)
+    problems: list[str] = []
+    info = _load_metadata(bag, problems)
+    listed = [Path(name).name for name in info.get('relative_file_paths') or []]
+    counts = {entry['topic_metadata']['name']: int(entry['message_count'])
+              for entry in info.get('topics_with_message_count') or []}
+    file_counts = {Path(entry['path']).name: int(entry['message_count'])
+                   for entry in info.get('files') or []}
+    read_counts = dict.fromkeys(counts, 0)
+    for name in listed:
+        _check_segment(bag / name, file_counts.get(name), read_counts, problems)
+    if read_counts != counts and not problems:
+        problems.append(f'metadata.yaml counts {counts} messages per topic, the files '
+                        f'hold {read_counts}')
+    unlisted = sorted(set(segment_files(bag)) - set(listed)) if bag.is_dir() else []
+    if unlisted:
+        problems.append(f'segment file(s) not in metadata.yaml: {", ".join(unlisted)}')
+    unfinished = unfinished_segment(bag)
+    size = unfinished.stat().st_size if unfinished is not None else 0
+    if unfinished is not None:
+        problems.append(f'an unfinished segment of {size} bytes is left in {unfinished.parent}')
+    return BagCheck(bag, not problems, int(info.get('message_count') or 0), counts, listed,
+                    unfinished, size, unlisted, problems)
+
+
+def _load_metadata(bag: Path, problems: list[str]) -> dict:
+    """Return the ``rosbag2_bagfile_information`` of ``bag``; {} and a problem if unusable."""
+    if not bag.is_dir():
+        problems.append('not a bag directory' if bag.exists() else 'does not exist')
+        return {}
+    try:
+        info = YAML(typ='safe').load((bag / METADATA).read_text())
+        info = info['rosbag2_bagfile_information']
+        if not isinstance(info, dict):
+            raise TypeError('rosbag2_bagfile_information is not a mapping')
+        return info
+    except FileNotFoundError:
+        problems.append(f'{METADATA} is missing')
+    except Exception as err:  # ruamel raises many types; a corrupt file is a finding here
+        problems.append(f'{METADATA} cannot be read: {err}')
+    return {}
+
+
+def _check_segment(file: Path, listed_count: Optional[int], read_counts: dict[str, int],
+                   problems: list[str]) -> None:
+    """Open one listed segment, add its messages per topic to ``read_counts``."""
+    try:
+        with Reader(file) as reader:
+            total = reader.message_count
+            for conn in reader.connections:
+                read_counts[conn.topic] = read_counts.get(conn.topic, 0) + conn.msgcount
+    except Exception as err:  # rosbags raises ReaderError, FileNotFoundError, ...
+        problems.append(f'{file.name} cannot be read: {err}')
+        return
+    if listed_count is not None and listed_count != total:
+        problems.append(f'{file.name} holds {total} messages, metadata.yaml says {listed_count}')
+
+
+def segment_index(bag: Path, name: str) -> Optional[int]:
+    """Index ``i`` of a segment file name ``<bag name>_<i>.mcap``; None for other names."""
+    stem, dot, suffix = name.rpartition('.')
+    prefix, _, index = stem.rpartition('_')
+    if dot and suffix == 'mcap' and prefix == bag.name and index.isdigit():
+        return int(index)
+    return None
+
+
+def segment_files(bag: Path) -> list[str]:
+    """Names of the segment files ``<bag name>_<i>.mcap`` in ``bag``, in index order."""
+    found = [(segment_index(bag, p.name), p.name) for p in bag.iterdir() if p.is_file()]
+    return [name for index, name in sorted((i, n) for i, n in found if i is not None)]
+
+
+def unfinished_segment(bag: Path) -> Optional[Path]:
+    """Return the open segment's file left in the working directory, if any."""
+    work = bag / WORKING_DIR
+    files = sorted(work.glob('*.mcap')) if work.is_dir() else []
+    return files[0] if files else None

@@ -117,3 +117,35 @@ def test_python_m_flectofold_ros_runs_an_executable():
     wrong = subprocess.run([str(Path(BIN) / 'python'), '-m', 'flectofold_ros', 'nonsense'],
                            capture_output=True, text=True, timeout=60)
     assert wrong.returncode == 2 and 'usage' in wrong.stderr
+
+
+KILLED_RECORDING = """
+import os, sys
+from rosbags.typesys import get_typestore, Stores
+from flectofold_ros.recording.bag_segments import SegmentedBagWriter
+ts = get_typestore(Stores.ROS2_JAZZY)
+writer = SegmentedBagWriter(sys.argv[1], max_segment_s=1.0)
+writer.add_topic('/setpoint', 'std_msgs/msg/Float64')
+for i in range(20000):  # 0.1 ms steps: one closed segment of 10 000, then an open one
+    msg = ts.types['std_msgs/msg/Float64'](float(i))
+    writer.write('/setpoint', 100_000 * i, ts.serialize_cdr(msg, 'std_msgs/msg/Float64'))
+writer.flush()
+os._exit(1)
+"""
+
+
+@pytest.mark.parametrize('delay_s', MOMENTS_S)
+def test_ctrl_c_to_bag_reindex_leaves_a_bag_the_next_one_finishes(tmp_path, delay_s):
+    bag = tmp_path / 'killed'
+    subprocess.run([str(BIN / 'python'), '-c', KILLED_RECORDING, str(bag)], timeout=120)
+    command = [str(BIN / 'bag_reindex'), str(bag)]
+    code, output, survivors = run_and_signal(command, delay_s, signal.SIGINT, dict(os.environ))
+    assert code in (0, 130) and 'Traceback' not in output and not survivors, output
+    again = subprocess.run(command, capture_output=True, text=True, timeout=120)
+    assert again.returncode == 0, again.stderr
+    from rosbags.typesys import get_typestore, Stores
+    store = get_typestore(Stores.ROS2_JAZZY)
+    with Reader(bag) as reader:
+        assert reader.message_count == 20000
+        assert sorted(int(store.deserialize_cdr(raw, 'std_msgs/msg/Float64').data)
+                      for _, _, raw in reader.messages()) == list(range(20000))
