@@ -3,7 +3,8 @@
 The schema is documented, with an example per surface type, in ``msg_docs/facade.md``. Loading
 checks everything before anything starts: unknown keys, wrong types, non-finite numbers and
 impossible sizes raise :class:`FacadeError` naming the key path (``grid.rows``) and the reason.
-YAML is read with ``yaml.safe_load`` only.
+YAML is read with :func:`flectofold_model.safe_yaml.load_yaml`: plain values only, no aliases,
+bounded size, node count and depth. A value quoted in a message is cut to a short repr.
 
 Pre-fold. A Flectofold panel folds the right way only if it starts with some fold toward
 closing (``min_prefold_rad``). On a curved facade the patch supplies part of it: bending the
@@ -21,12 +22,14 @@ from dataclasses import dataclass, field, fields
 import math
 from pathlib import Path
 
+import re
+
 import numpy as np
-import yaml
 
 from flectofold_model.environment.sun import Site
 from flectofold_model.facade import surfaces
 from flectofold_model.kinematics.panel import fold_line_sag, PanelGeometry
+from flectofold_model.safe_yaml import load_yaml, read_yaml, short_repr, YAMLInputError
 
 DEFAULT_FACADE = Path(__file__).with_name('data') / 'demonstrator_6x6.yaml'
 
@@ -56,6 +59,8 @@ _SURFACE_KEYS = {'plane': (), 'cylinder': ('radius_m',),
 _PANEL_DEFAULTS = {'min_prefold_rad': math.radians(5.0),
                    'max_moulded_prefold_rad': math.radians(15.0), 'closed_clearance_m': 0.02}
 _CONTROL_KEYS = {'period_s', 'shading_target', 'look_ahead_s'}
+#: A facade's name ends up in recording ids and file names: a short plain word.
+_NAME = re.compile(r'[A-Za-z0-9][A-Za-z0-9_.-]{0,63}')
 
 
 @dataclass(frozen=True)
@@ -120,21 +125,29 @@ def load_facade(path=DEFAULT_FACADE):
     """Read, validate and build a facade description from a YAML file."""
     path = Path(path)
     try:
-        text = path.read_text()
+        document = read_yaml(path)
     except OSError as error:
-        raise FacadeError(f'{path}: cannot read the facade description: {error}') from None
-    return build_facade(text, base_directory=path.parent)
+        raise FacadeError(f'{path}: cannot read the facade description: '
+                          f'{error.strerror or error}') from None
+    except YAMLInputError as error:
+        raise FacadeError(str(error)) from None
+    return _build_document(document, Path(path).parent)
 
 
 def build_facade(text, base_directory='.'):
     """Validate and build a facade from YAML text (OBJ paths resolve from base_directory)."""
     try:
-        document = yaml.safe_load(text)
-    except yaml.YAMLError as error:
-        raise FacadeError(f'malformed YAML: {error}') from None
+        document = load_yaml(text, 'facade description')
+    except YAMLInputError as error:
+        raise FacadeError(str(error)) from None
+    return _build_document(document, Path(base_directory))
+
+
+def _build_document(document, base_directory):
     if not isinstance(document, dict):
         raise FacadeError('a facade description is a mapping of sections')
     _check(document, _SCHEMA, '')
+    _check_name(document.get('name', 'facade'))
     for section in ('site', 'facade', 'surface', 'grid', 'panel'):
         if section not in document:
             raise FacadeError(f'{section}: missing section')
@@ -148,7 +161,7 @@ def build_facade(text, base_directory='.'):
     azimuth = _need(document['facade'], 'facade', 'azimuth_deg')
     if not 0 <= azimuth < 360:
         raise FacadeError(f'facade.azimuth_deg: must lie in [0, 360), got {azimuth:g}')
-    patches = _patches(document['surface'], document['grid'], Path(base_directory))
+    patches = _patches(document['surface'], document['grid'], base_directory)
     control = _control(document.get('control', {}))
     panels, ids, kept, surface_prefold, moulded, excluded = _panels(
         patches, document['panel'], document['grid'], document.get('overrides', {}))
@@ -163,9 +176,16 @@ def build_facade(text, base_directory='.'):
                   gaussian_sign=patches.gaussian_sign[kept], excluded=excluded, control=control)
 
 
+def _key(key):
+    """Return a key as a message shows it: a short string as is, anything else quoted."""
+    if isinstance(key, str) and len(key) <= 40 and key.isprintable():
+        return key
+    return short_repr(key)
+
+
 def _check(document, schema, prefix):
     for key, value in document.items():
-        where = f'{prefix}{key}'
+        where = f'{prefix}{_key(key)}'
         if key not in schema:
             known = ', '.join(sorted(schema))
             raise FacadeError(f'{where}: unknown key (known here: {known})')
@@ -181,14 +201,24 @@ def _check(document, schema, prefix):
 def _check_type(where, value, expected):
     if expected is float:
         if isinstance(value, bool) or not isinstance(value, (int, float)):
-            raise FacadeError(f'{where}: must be a number, got {value!r}')
-        if not math.isfinite(value):
-            raise FacadeError(f'{where}: must be finite, got {value!r}')
+            raise FacadeError(f'{where}: must be a number, got {short_repr(value)}')
+        try:
+            finite = math.isfinite(value)
+        except OverflowError:  # an integer beyond any float
+            finite = False
+        if not finite:
+            raise FacadeError(f'{where}: must be finite, got {short_repr(value)}')
     elif expected is int:
         if isinstance(value, bool) or not isinstance(value, int):
-            raise FacadeError(f'{where}: must be a whole number, got {value!r}')
+            raise FacadeError(f'{where}: must be a whole number, got {short_repr(value)}')
     elif not isinstance(value, expected):
-        raise FacadeError(f'{where}: must be a {expected.__name__}, got {value!r}')
+        raise FacadeError(f'{where}: must be a {expected.__name__}, got {short_repr(value)}')
+
+
+def _check_name(name):
+    if not (isinstance(name, str) and _NAME.fullmatch(name)):
+        raise FacadeError(f'name: must be 1 to 64 letters, digits, _ . or - (starting with a '
+                          f'letter or digit), got {short_repr(name)}')
 
 
 def _need(section, name, key):
@@ -201,20 +231,24 @@ def _build(where, make):
     try:
         return make()
     except (TypeError, ValueError) as error:
-        raise FacadeError(f'{where}: {error}') from None
+        reason = ' '.join(str(error).split())
+        reason = reason if len(reason) <= 300 else f'{reason[:297]}...'
+        raise FacadeError(f'{where}: {reason}') from None
 
 
 def _patches(surface, grid, base_directory):
     kind = _need(surface, 'surface', 'type')
     if kind not in _SURFACE_KEYS:
-        raise FacadeError(f'surface.type: must be one of {", ".join(_SURFACE_KEYS)}, got {kind!r}')
+        raise FacadeError(f'surface.type: must be one of {", ".join(_SURFACE_KEYS)}, '
+                          f'got {short_repr(kind)}')
     allowed = {'type', 'width_m', 'height_m', *_SURFACE_KEYS[kind]}
     for key in surface:
         if key not in allowed:
-            raise FacadeError(f'surface.{key}: not used by a {kind} surface')
+            raise FacadeError(f'surface.{_key(key)}: not used by a {kind} surface')
     midrib = grid.get('midrib_along', 'v')
     if midrib not in ('u', 'v', 'auto'):
-        raise FacadeError(f"grid.midrib_along: must be 'u', 'v' or 'auto', got {midrib!r}")
+        raise FacadeError(f"grid.midrib_along: must be 'u', 'v' or 'auto', "
+                          f'got {short_repr(midrib)}')
     if kind == 'obj':
         path = base_directory / _need(surface, 'surface', 'path')
         vertices, faces = _build('surface.path', lambda: surfaces.read_obj_quads(path))
@@ -229,7 +263,7 @@ def _patches(surface, grid, base_directory):
     rows, columns = (_need(grid, 'grid', key) for key in ('rows', 'columns'))
     for key, value in (('rows', rows), ('columns', columns)):
         if not 1 <= value <= 1000:
-            raise FacadeError(f'grid.{key}: must lie in [1, 1000], got {value}')
+            raise FacadeError(f'grid.{key}: must lie in [1, 1000], got {short_repr(value)}')
     return shape.tessellate(rows, columns, midrib)
 
 
@@ -238,7 +272,8 @@ def _control(control):
     known = _CONTROL_KEYS | {f.name for f in fields(SchedulerParameters)}
     for key, value in control.items():
         if key not in known:
-            raise FacadeError(f'control.{key}: unknown key (known: {", ".join(sorted(known))})')
+            raise FacadeError(f'control.{_key(key)}: unknown key '
+                              f'(known: {", ".join(sorted(known))})')
         _check_type(f'control.{key}', value, float)
     scheduler = {k: v for k, v in control.items() if k not in _CONTROL_KEYS}
     _build('control', lambda: SchedulerParameters(**scheduler))
@@ -258,9 +293,11 @@ def _panels(patches, template, grid, overrides):
     ids = [f'r{r:02d}c{c:02d}' for r, c in zip(patches.row, patches.column)]
     for panel_id, settings in overrides.items():
         if panel_id not in ids:
-            raise FacadeError(f'overrides.{panel_id}: no such panel (ids look like r00c03)')
+            raise FacadeError(f'overrides.{_key(panel_id)}: no such panel '
+                              f'(ids look like r00c03)')
         if not isinstance(settings, dict):
-            raise FacadeError(f'overrides.{panel_id}: must be a mapping')
+            raise FacadeError(f'overrides.{panel_id}: must be a mapping, '
+                              f'got {short_repr(settings)}')
         _check(settings, _SCHEMA['panel'], f'overrides.{panel_id}.')
     panels, built_ids, kept, surface_prefold, moulded, excluded = [], [], [], [], [], []
     for index, panel_id in enumerate(ids):

@@ -15,7 +15,7 @@ import time
 from flectofold_model.facade import DEFAULT_FACADE, load_facade
 from flectofold_ros.recording.bag_segments import BagError
 from flectofold_ros.rerun.bag_to_rrd import convert
-from flectofold_ros.runner import run_command
+from flectofold_ros.runner import Interrupted, run_command
 
 DEFAULT_FLUSH_PERIOD_S = 1.0
 
@@ -72,11 +72,16 @@ def without_ros_args(argv):
 
 def main(args=None):
     """``ros2 run flectofold_ros replay BAG [--rate R] [--loop] [--topics ...] [--to-rrd OUT]``."""
-    options = parse_arguments(without_ros_args(sys.argv if args is None else args)[1:])
-    if options.to_rrd:
-        return run_command('replay', lambda stop: to_rrd(options), bad_input=(BagError,),
-                           interrupted_code=130)
-    from flectofold_ros.nodes.replay import play  # rclpy: only when playing onto the graph
+    try:
+        options = parse_arguments(without_ros_args(sys.argv if args is None else args)[1:])
+        if options.to_rrd:
+            return run_command('replay', lambda stop: to_rrd(options), bad_input=(BagError,),
+                               interrupted_code=130)
+        # rclpy only when playing onto the graph; importing it takes a second or more, and a
+        # stop signal then ends the start (the executables' handlers are installed).
+        from flectofold_ros.nodes.replay import play
+    except Interrupted:
+        return 0
     return play(options, args)
 
 

@@ -19,6 +19,9 @@ from flectofold_ros.runner import Program, run_nodes
 
 #: Wall seconds between the player's looks for messages that are due.
 PLAY_PERIOD_S = 0.01
+#: Wall seconds one look may publish for before it hands back to the executor, which sees a
+#: stop signal only between callbacks (a fast ``--rate`` makes a whole bag due at once).
+PLAY_BUDGET_S = 0.05
 #: Wall seconds the new publishers get to match their subscribers before the first message:
 #: at least the first, then until every topic has a subscriber, at most the second (a topic
 #: nobody listens to must not hold the others back for long).
@@ -48,7 +51,8 @@ class Player(Node):
         if self._messages is None:
             self._messages = read_messages(self.options.bag, self.selected)
             self._started, self._first_ns = time.monotonic(), None
-        while True:
+        budget_end = time.monotonic() + PLAY_BUDGET_S
+        while time.monotonic() < budget_end:
             if self._pending is None:
                 self._pending = next(self._messages, None)
                 if self._pending is None:

@@ -4,9 +4,9 @@
 The node subscribes to ``/facade/panel_states`` (one message per panel process and state) and
 the sun, and hands them to :class:`flectofold_ros.rerun.scene.FacadeScene`, which rebuilds the
 meshes of the panels that moved with ``flectofold_model`` and logs the facade as one batched
-mesh on the ROS time. Sinks: a viewer (one it spawns, bound to 127.0.0.1, or one at a gRPC
-address) and/or an ``.rrd`` file. Topics, parameters and the entity layout:
-``msg_docs/rerun_bridge.md``.
+mesh on the ROS time. Sinks: a viewer (one it spawns, connected to a server the bridge hosts on
+127.0.0.1, or one at a gRPC address) and/or an ``.rrd`` file; whatever becomes of a viewer,
+the file goes on. Topics, parameters and the entity layout: ``msg_docs/rerun_bridge.md``.
 """
 
 from datetime import datetime
@@ -21,7 +21,8 @@ from flectofold_ros import contract, diagnostics
 from flectofold_ros.interfaces import publisher, subscription
 from flectofold_ros.parameters import boolean, choice, declare_all, double, integer, string
 from flectofold_ros.rerun.scene import COLOR_MODES, FacadeScene, feed, scene_topics
-from flectofold_ros.rerun.sinks import choose_sinks, open_recording, spawn_viewer
+from flectofold_ros.rerun.sinks import (choose_sinks, close_recording, open_recording,
+                                        server_url, spawn_viewer)
 from flectofold_ros.runner import Program, run_nodes
 
 USAGE = 'rerun_bridge [--ros-args -p name:=value ...]'
@@ -32,9 +33,11 @@ PARAMETERS = {
     'color_by': choice('closure', 'Panel colour: closure or gauge pressure', COLOR_MODES),
     'viewer': string('auto', 'Live viewer: auto (spawn one when a display is set), spawn, '
                      'none, or a gRPC URL such as rerun+http://127.0.0.1:9876/proxy'),
-    'viewer_port': integer(9876, 'Port of a spawned viewer (bound to 127.0.0.1)', 1024, 65535),
+    'viewer_port': integer(9876, 'Port of the server a spawned viewer connects to (bound to '
+                           '127.0.0.1)', 1024, 65535),
     'rrd_path': string('', 'Also save the recording to this .rrd; empty: save '
-                       'flectofold_<time>.rrd in the working directory when no viewer is used'),
+                       'flectofold_<time>.rrd in the working directory unless a viewer at a '
+                       'URL is used'),
     'flush_period_s': double(0.1, 'Wall time between logging what changed [s]', 0.01, 10.0),
     'min_change_rad': double(
         1e-3, 'A panel is re-meshed when its fold angle moved more than this [rad]', 0.0, 0.0999),
@@ -50,15 +53,16 @@ class RerunBridge(Node):
         kwargs.setdefault('namespace', contract.FACADE_NODE_NAMESPACE)
         super().__init__(contract.RERUN_BRIDGE_NODE, **kwargs)
         declare_all(self, PARAMETERS)
-        value = self._value
+        value, warn = self._value, self.get_logger().warning
         facade = load_facade(value('facade_file') or DEFAULT_FACADE)
-        url, self.rrd_path, spawn = choose_sinks(value('viewer'), value('rrd_path'),
-                                                 value('viewer_port'))
-        if spawn:
-            url = spawn_viewer(value('viewer_port'))
-        self.viewer_url = url
+        port = value('viewer_port')
+        url, self.rrd_path, spawn = choose_sinks(value('viewer'), value('rrd_path'), port,
+                                                 warn=warn)
         recording_id = f'{facade.name}-{datetime.now().isoformat(timespec="seconds")}'
-        self.recording = open_recording(recording_id, url, self.rrd_path, value('strict'))
+        self.recording = open_recording(recording_id, url, self.rrd_path, value('strict'),
+                                        server_port=port if spawn else None)
+        self.viewer = spawn_viewer(server_url(port), warn) if spawn else None
+        self.viewer_url = server_url(port) if spawn else url
         self.scene = FacadeScene(facade, self.recording, value('color_by'),
                                  value('min_change_rad'))
         self.scene.log_static()
@@ -114,7 +118,15 @@ class RerunBridge(Node):
                 'lag_last_s': self.lag_s[-1] if self.lag_s else 0.0,
                 'flush_cpu_share': self.flush_wall_s / wall_s}
 
+    def _watch_viewer(self):
+        if self.viewer is not None and self.viewer.poll() is not None:
+            self.get_logger().warning(
+                f'the Rerun viewer exited (exit {self.viewer.returncode}); still saving '
+                f'{self.rrd_path} (a viewer can connect again: rerun --connect {self.viewer_url})')
+            self.viewer = None
+
     def _report(self):
+        self._watch_viewer()
         figures = self.figures()
         self._diagnostics.publish(diagnostics.diagnostic_array(self, [diagnostics.status(
             self, diagnostics.OK, 'rerun', contract.RERUN_BRIDGE_NODE,
@@ -136,8 +148,7 @@ class RerunBridge(Node):
     def close(self):
         """Log the last changes and finish the file (its footer)."""
         self.flush()
-        self.recording.flush()
-        self.recording.disconnect()
+        close_recording(self.recording, self.get_logger().warning)
 
 
 class _Bridging(Program):

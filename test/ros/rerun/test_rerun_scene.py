@@ -5,6 +5,9 @@ built with :func:`panel_states.fill_message`), usually from two panel processes,
 half of the demonstrator's panels.
 """
 
+from pathlib import Path
+import socket
+
 from builtin_interfaces.msg import Time
 from geometry_msgs.msg import Vector3Stamped
 import numpy as np
@@ -28,7 +31,8 @@ from flectofold_ros.rerun.scene import (CLOSURE_BAND, facade_topology, FACADE_VE
                                         FacadeScene, FAULT_RGBA, feed, k_from_sag,
                                         NO_STATE_RGBA, packed, ramp_colour, ramp_colours,
                                         scene_topics)
-from flectofold_ros.rerun.sinks import check_rrd_path, choose_sinks, open_recording
+from flectofold_ros.rerun.sinks import (check_rrd_path, choose_sinks, open_recording,
+                                        spawn_viewer)
 
 T0_NS = 1782036000 * 10**9  # 2026-06-21 10:00 UTC
 STEP_NS = 10**8  # the panels' 10 Hz state grid
@@ -517,10 +521,44 @@ def test_sinks_are_checked(tmp_path):
     url, path, spawn = choose_sinks('auto', '', 9876, environ={})
     assert (url, spawn) == (None, False) and path.suffix == '.rrd'
     path.unlink()
-    url, path, spawn = choose_sinks('auto', '', 9876, environ={'DISPLAY': ':0'})
-    assert (url, path, spawn) == (None, None, True)
-    url, _, _ = choose_sinks('rerun+http://127.0.0.1:9000/proxy', '', 9876, environ={})
-    assert url == 'rerun+http://127.0.0.1:9000/proxy'
+
+
+def test_a_viewer_comes_with_the_rrd_unless_it_is_at_a_url(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    warnings = []
+    with socket.socket() as taken:
+        taken.bind(('127.0.0.1', 0))
+        taken.listen()
+        port = taken.getsockname()[1]
+        url = f'rerun+http://127.0.0.1:{port}/proxy'
+        chosen = choose_sinks(url, '', 9876, environ={}, warn=warnings.append)
+        assert chosen == (url, None, False)
+        spawned = choose_sinks('auto', '', port, environ={'DISPLAY': ':0'},
+                               warn=warnings.append)
+        assert spawned[1].suffix == '.rrd' and spawned[2] is False  # the port is taken
+        assert 'is taken' in warnings[-1]
+    url, path, spawn = choose_sinks('auto', '', port, environ={'DISPLAY': ':0'},
+                                    warn=warnings.append)
+    assert url is None and spawn and path.suffix == '.rrd'
+    url, path, spawn = choose_sinks('spawn', 'day.rrd', port, environ={}, warn=warnings.append)
+    assert (url, path, spawn) == (None, Path('day.rrd'), False)
+    assert 'without a display' in warnings[-1]
+    url, path, spawn = choose_sinks(f'rerun+http://127.0.0.1:{port}/proxy', '', 9876,
+                                    environ={}, warn=warnings.append)
+    assert url is None and path.suffix == '.rrd' and 'no Rerun viewer answers' in warnings[-1]
+
+
+def test_a_viewer_that_cannot_start_is_warned_about(tmp_path):
+    warnings = []
+    assert spawn_viewer('rerun+http://127.0.0.1:9/proxy', warnings.append,
+                        binary=str(tmp_path / 'no_rerun')) is None
+    assert 'cannot start the Rerun viewer' in warnings[-1]
+    failing = tmp_path / 'failing'
+    failing.write_text('#!/bin/sh\nexit 3\n')
+    failing.chmod(0o755)
+    assert spawn_viewer('rerun+http://127.0.0.1:9/proxy', warnings.append,
+                        binary=str(failing)) is None
+    assert 'exited at once (exit 3)' in warnings[-1]
 
 
 def test_small_facade_scene(tmp_path, small_facade_text):

@@ -1,0 +1,157 @@
+"""YAML from users and files, read within bounds: no aliases, limited size, nodes and depth.
+
+``yaml.safe_load`` builds no objects but the plain ones, yet it still trusts the document's
+shape: an anchor referenced by aliases that reference it again (a "billion laughs" document)
+is a few hundred bytes that stand for billions of values, and whatever walks or formats the
+loaded value (a ``repr`` in an error message) expands them all. :func:`load_yaml` refuses every
+alias, naming its line and column, and refuses a document longer than :data:`MAX_CHARACTERS`,
+with more than :data:`MAX_NODES` nodes or nested deeper than :data:`MAX_DEPTH`, before it is
+built. :func:`read_yaml` reads at most one character more than the bound from a file.
+:func:`short_repr` quotes a value in an error message in at most a line.
+
+No rclpy: the model, the nodes and the recorder's readers share it.
+"""
+
+import reprlib
+
+import yaml
+from yaml.composer import Composer
+from yaml.constructor import SafeConstructor
+from yaml.events import AliasEvent
+from yaml.resolver import Resolver
+
+try:  # libyaml's parser when the wheel has it (fast); composing stays here, bounded
+    from yaml.cyaml import CParser as _Parser
+except ImportError:  # pragma: no cover - the pure-Python parser of the same events
+    from yaml.parser import Parser
+    from yaml.reader import Reader
+    from yaml.scanner import Scanner
+
+    class _Parser(Reader, Scanner, Parser):
+        def __init__(self, stream):
+            Reader.__init__(self, stream)
+            Scanner.__init__(self)
+            Parser.__init__(self)
+
+#: Longest document accepted [characters]: a facade description is a few kilobytes.
+MAX_CHARACTERS = 4 * 2**20
+#: Most scalars, sequences and mappings in a document.
+MAX_NODES = 100_000
+#: Deepest nesting of sequences and mappings.
+MAX_DEPTH = 32
+#: Longest quotation of a value in an error message [characters].
+REPR_LIMIT = 80
+
+
+class YAMLInputError(ValueError):
+    """A YAML document refused: malformed, too large, too deep, or with aliases."""
+
+
+class _BoundedComposer(Composer):
+    """The PyYAML composer, counting nodes and depth, refusing aliases."""
+
+    def __init__(self, source):
+        super().__init__()
+        self._source, self._nodes, self._depth = source, 0, 0
+
+    def compose_node(self, parent, index):
+        if self.check_event(AliasEvent):
+            mark = self.peek_event().start_mark
+            raise YAMLInputError(f'{self._source}: {_where(mark)}: YAML aliases (*name) are '
+                                 f'not accepted; write the value out')
+        self._nodes += 1
+        if self._nodes > MAX_NODES:
+            raise YAMLInputError(f'{self._source}: {_where(self.peek_event().start_mark)}: '
+                                 f'more than {MAX_NODES} YAML nodes')
+        self._depth += 1
+        try:
+            if self._depth > MAX_DEPTH:
+                raise YAMLInputError(f'{self._source}: {_where(self.peek_event().start_mark)}:'
+                                     f' nested deeper than {MAX_DEPTH} levels')
+            return super().compose_node(parent, index)
+        finally:
+            self._depth -= 1
+
+
+class _Loader(_BoundedComposer, _Parser, SafeConstructor, Resolver):
+    """Safe construction of plain values from a bounded composition (see the module)."""
+
+    def __init__(self, text, source):
+        _Parser.__init__(self, text)
+        _BoundedComposer.__init__(self, source)
+        SafeConstructor.__init__(self)
+        Resolver.__init__(self)
+
+
+def _where(mark):
+    return f'line {mark.line + 1}, column {mark.column + 1}'
+
+
+def _yaml_reason(error):
+    """One line from a PyYAML error: where and what, without the quoted source lines."""
+    mark = getattr(error, 'problem_mark', None)
+    problem = getattr(error, 'problem', None)
+    if mark is None or problem is None:
+        return _one_line(error)
+    context = getattr(error, 'context', None)
+    return _one_line(f'{_where(mark)}: {problem}' + (f' ({context})' if context else ''))
+
+
+def _one_line(message, limit=300):
+    return _short(' '.join(str(message).split()), limit)
+
+
+def load_yaml(text, source='YAML'):
+    """Return the plain value of one YAML document; refuse it (:class:`YAMLInputError`).
+
+    ``source`` names the document in the messages (a path, a parameter).
+    """
+    if not isinstance(text, str):
+        raise YAMLInputError(f'{source}: YAML must be text, got {type(text).__name__}')
+    if len(text) > MAX_CHARACTERS:
+        raise YAMLInputError(f'{source}: longer than {MAX_CHARACTERS} characters')
+    loader = _Loader(text, source)
+    try:
+        return loader.get_single_data()
+    except YAMLInputError:
+        raise
+    except yaml.YAMLError as error:
+        raise YAMLInputError(f'{source}: malformed YAML: {_yaml_reason(error)}') from None
+    except (ValueError, OverflowError) as error:  # a scalar the constructor cannot convert
+        raise YAMLInputError(f'{source}: a value cannot be read: {_one_line(error)}') from None
+    finally:
+        loader.dispose()
+
+
+def read_yaml(path, source=None):
+    """Read a YAML file within the bounds of :func:`load_yaml` and return its value.
+
+    Raises :class:`YAMLInputError` for the document and ``OSError`` for the file.
+    """
+    source = str(path) if source is None else source
+    with open(path, encoding='utf-8', errors='strict') as stream:
+        try:
+            text = stream.read(MAX_CHARACTERS + 1)
+        except UnicodeDecodeError as error:
+            raise YAMLInputError(f'{source}: not UTF-8 text ({error.reason} at byte '
+                                 f'{error.start})') from None
+    return load_yaml(text, source)
+
+
+_REPR = reprlib.Repr()
+_REPR.maxstring = _REPR.maxother = REPR_LIMIT
+_REPR.maxlevel, _REPR.maxdict, _REPR.maxlist, _REPR.maxtuple, _REPR.maxset = 3, 4, 6, 6, 6
+
+
+def short_repr(value):
+    """``repr(value)`` in at most about :data:`REPR_LIMIT` characters, whatever the value."""
+    if isinstance(value, int) and not isinstance(value, bool) and value.bit_length() > 200:
+        return f'<an integer of {value.bit_length()} bits>'  # repr() could refuse it
+    try:
+        return _short(_REPR.repr(value), REPR_LIMIT)
+    except Exception:  # noqa: B902 - a value whose repr fails is still named by its type
+        return f'<a {type(value).__name__}>'
+
+
+def _short(text, limit):
+    return text if len(text) <= limit else f'{text[:limit - 3]}...'
