@@ -181,8 +181,8 @@ FACADE_NODE_NAMESPACE = FACADE_NAMESPACE
 #: What the recorder records unless told otherwise: the facade-level state, the facade's inputs,
 #: ``/diagnostics`` and ``/clock``; not the per-panel topics (``/facade/**`` adds them).
 RECORDED_BY_DEFAULT = (FACADE_JOINT_STATES.name, PANEL_STATES.name, SUN.name, WIND_SPEED.name,
-                       DNI.name, OVERRIDE.name, OVERRIDE_CLEAR.name, DIAGNOSTICS.name,
-                       CLOCK.name)
+                       DNI.name, OVERRIDE.name, OVERRIDE_CLEAR.name, INJECT_FAULT.name,
+                       DIAGNOSTICS.name, CLOCK.name)
 
 # -- diagnostics ------------------------------------------------------------------------------
 

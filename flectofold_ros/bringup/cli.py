@@ -22,6 +22,8 @@ from rclpy.utilities import remove_ros_args
 
 from flectofold_model.facade import DEFAULT_FACADE, load_facade
 from flectofold_ros import contract, diagnostics
+from flectofold_ros.bringup.fault_script import load_fault_script
+from flectofold_ros.bringup.fault_script_node import FaultScriptNode
 from flectofold_ros.bringup.monitor import Monitor
 from flectofold_ros.bringup.plan import local_time, MAX_LAG_S, plan_day
 from flectofold_ros.bringup.supervision import RestartPolicy, Supervisor
@@ -30,6 +32,7 @@ from flectofold_ros.nodes.coordinator import CoordinatorNode
 from flectofold_ros.nodes.panel import MAX_CALL_S, start_panels
 from flectofold_ros.nodes.panel_group import group_slice
 from flectofold_ros.nodes.sun_position import SunPositionNode
+from flectofold_ros.recording.bag_segments import check_bag
 from flectofold_ros.runner import Program, run_nodes, stop_requested
 
 #: Wall seconds the clock waits at the start for every panel and observer to be up.
@@ -74,6 +77,9 @@ def parse_arguments(argv):
     parser.add_argument('--out', default='out',
                         help='directory for the bag and the .rrd (default out/); each run '
                              'gets a folder, out/latest points to the newest')
+    parser.add_argument('--faults', default='', metavar='FILE',
+                        help='fault script YAML: faults injected into simulated panels at '
+                             'chosen times (msg_docs/fault_injection.md)')
     parser.add_argument('--restart-limit', type=int, default=RestartPolicy.restart_limit,
                         help='restarts of a child process that keeps dying before its panels '
                              f'are given up (default {RestartPolicy.restart_limit}; 0: never '
@@ -194,6 +200,12 @@ class Bringup(Program):
         self.monitor = Monitor(self.facade)
         self._diagnostics = publisher(self.monitor, contract.DIAGNOSTICS)
         self.nodes += [self.sun, self.monitor]
+        if options.faults:
+            script = load_fault_script(options.faults, self.facade.panel_ids,
+                                       plan.start_epoch_s, plan.end_epoch_s,
+                                       self.facade.utc_offset_h)
+            self.nodes.append(FaultScriptNode(script, plan.start_epoch_s,
+                                              subscribers=max(1, groups)))
         steady = Clock(clock_type=ClockType.STEADY_TIME)
         self.monitor.create_timer(options.progress_period, self._print_progress, clock=steady)
         self.monitor.create_timer(0.25, self._advance, clock=steady)
@@ -354,12 +366,18 @@ class Bringup(Program):
         print('\n'.join(self.summary_lines(wall_s, interrupted,
                                            time.monotonic() - self.started)), flush=True)
         if self.outputs is not None:
-            print('\n'.join(output_lines(self.outputs)), flush=True)
+            print('\n'.join(output_lines(self.outputs) + self._recording_lines()), flush=True)
         if self.failed:
             return FAILED
         if interrupted:
             return INTERRUPTED
         return LOST if any(child.lost for child in self.supervisor.children) else 0
+
+    def _recording_lines(self):
+        """Whether each bag the recorder (and its restarts) wrote is complete."""
+        bags = sorted(name for name in os.listdir(self.outputs)
+                      if name == 'bag' or name.startswith('bag.restart'))
+        return ['  ' + check_bag(os.path.join(self.outputs, name)).summary() for name in bags]
 
     def _stop_children(self):
         self.supervisor.stop(PANELS_STOP_S, panels=True)

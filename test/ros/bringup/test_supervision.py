@@ -98,12 +98,16 @@ def test_a_killed_panel_process_is_restarted_and_its_panels_track_again(small_fa
     assert 'Traceback' not in text
 
 
-def test_panels_lost_for_good_end_the_day_with_exit_code_3(small_facade_file):
+def test_panels_lost_for_good_end_the_day_with_exit_code_3(small_facade_file, tmp_path):
+    """Also a fault script: the other process's panel loses its supply at 11:05."""
+    faults = tmp_path / 'faults.yaml'
+    faults.write_text("- {at: '11:05', panels: [r01c01], fault: supply_loss}\n")
     graph = Graph(domain_for(52))
     try:
         bringup = graph.start('facade', '--facade', str(small_facade_file), '--start', '11:00',
                               '--end', '11:30', '--speedup', '120', '--panel-processes', '2',
-                              '--progress-period', '1', '--restart-limit', '0')
+                              '--progress-period', '1', '--restart-limit', '0',
+                              '--faults', str(faults))
         output = Lines(bringup)
         assert output.wait_for(graph, '| panels reporting 4/4', 180), output.text
         subprocess.run(['kill', '-KILL', str(panel_processes_of(bringup.pid)[0])], check=True)
@@ -118,3 +122,33 @@ def test_panels_lost_for_good_end_the_day_with_exit_code_3(small_facade_file):
     assert 'day finished' in text and 'panels reporting: 2/4' in text
     assert '1 deaths, 0 restarts, 2 panels lost for good (r00c00, r00c01)' in text, text
     assert 'not restarted: lost' in text
+    assert 'faults: supply_lost' in text  # the scripted fault, found by the panel's loop
+
+
+def test_a_killed_recorder_is_restarted_into_a_new_bag_and_the_summary_says_so(
+        small_facade_file, tmp_path):
+    graph = Graph(domain_for(55))
+    try:
+        bringup = graph.start('facade', '--facade', str(small_facade_file), '--start', '11:00',
+                              '--end', '11:40', '--speedup', '120', '--panel-processes', '1',
+                              '--progress-period', '1', '--record', '--out',
+                              str(tmp_path / 'out'))
+        output = Lines(bringup)
+        assert output.wait_for(graph, '| panels reporting 4/4', 180), output.text
+        graph.spin_for(3.0)  # the recorder writes a few seconds of the day
+        listing = subprocess.run(['pgrep', '-P', str(bringup.pid), '-f', 'bag_recorder'],
+                                 capture_output=True, text=True).stdout.split()
+        subprocess.run(['kill', '-KILL', listing[0]], check=True)
+        assert output.wait_for(graph, 'bag_recorder (pid', 30), output.text
+        assert output.wait_for(graph, 'day finished', 240), output.text
+        bringup.wait(timeout=120)
+        output.wait_for(graph, 'never printed', 2.0)
+    finally:
+        graph.close()
+    text = output.text
+    assert bringup.returncode == 0, text
+    assert 'bag_recorder died at 11:' in text and 'restarted after' in text, text
+    run = next((tmp_path / 'out').glob('2026-*'))
+    assert (run / 'bag.restart1' / 'metadata.yaml').exists()
+    assert f'bag {run / "bag"}: INCOMPLETE' in text and 'bag_reindex' in text, text
+    assert f'bag {run / "bag.restart1"}: complete' in text, text
