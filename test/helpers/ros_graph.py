@@ -113,6 +113,25 @@ class Graph:
         rclpy.try_shutdown(context=self.context)
 
 
+def signal_group_and_wait(process, number, timeout_s=30.0):
+    """Signal ``process``'s group as a terminal does; return (exit code, output, seconds).
+
+    ``process`` must lead its group (``start_new_session``). Fails the test, after killing
+    the group, when it has not stopped within ``timeout_s``.
+    """
+    import pytest
+    started = time.monotonic()
+    os.killpg(process.pid, number)
+    try:
+        output, _ = process.communicate(timeout=timeout_s)
+    except subprocess.TimeoutExpired:
+        os.killpg(process.pid, signal.SIGKILL)
+        output, _ = process.communicate()
+        pytest.fail(f'{process.args[0]} did not stop within {timeout_s:g} s of '
+                    f'{signal.Signals(number).name}:\n{output}')
+    return process.returncode, output, time.monotonic() - started
+
+
 def _kill(process):
     """SIGKILL ``process`` and every process under it; return what it printed.
 

@@ -12,7 +12,7 @@ import subprocess
 import time
 
 import pytest
-from ros_graph import BIN, domain_for
+from ros_graph import BIN, domain_for, signal_group_and_wait
 from rosbags.rosbag2 import Reader
 
 from flectofold_ros import contract
@@ -70,13 +70,7 @@ def run_and_signal(command, delay_s, number, environment):
     process = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
                                text=True, env=environment, start_new_session=True)
     time.sleep(delay_s)
-    os.killpg(process.pid, number)
-    try:
-        output, _ = process.communicate(timeout=60)
-    except subprocess.TimeoutExpired:
-        os.killpg(process.pid, signal.SIGKILL)
-        output, _ = process.communicate()
-        pytest.fail(f'{command[0]} did not stop within 60 s of the signal:\n{output}')
+    _, output, _ = signal_group_and_wait(process, number, timeout_s=60.0)
     survivors = subprocess.run(['pgrep', '-g', str(process.pid)], capture_output=True,
                                text=True).stdout.split()
     if survivors:

@@ -15,7 +15,7 @@ from builtin_interfaces.msg import Time
 import numpy as np
 import pytest
 from rclpy.serialization import serialize_message
-from ros_graph import BIN, domain_for
+from ros_graph import BIN, domain_for, signal_group_and_wait
 from rrd_reading import Rrd
 from sensor_msgs.msg import PointCloud2, PointField
 
@@ -79,16 +79,8 @@ def maps(process):
 
 def stop(process, number, expected_code):
     """Signal the group; check a clean exit within 5 s; return the output."""
-    started = time.monotonic()
-    os.killpg(process.pid, number)
-    try:
-        output, _ = process.communicate(timeout=30)
-    except subprocess.TimeoutExpired:
-        os.killpg(process.pid, signal.SIGKILL)
-        output, _ = process.communicate()
-        pytest.fail(f'replay did not stop within 30 s of the signal:\n{output}')
-    took_s = time.monotonic() - started
-    assert process.returncode == expected_code, output
+    code, output, took_s = signal_group_and_wait(process, number)
+    assert code == expected_code, output
     assert took_s < 5.0, (took_s, output)
     for word in ('Traceback', 'FATAL', 'KeyboardInterrupt', 'Interrupted'):
         assert word not in output, output

@@ -11,7 +11,7 @@ import subprocess
 import time
 
 import pytest
-from ros_graph import BIN, domain_for, Graph
+from ros_graph import BIN, domain_for, Graph, signal_group_and_wait
 from rrd_reading import Rrd
 
 pytestmark = pytest.mark.graph
@@ -59,15 +59,7 @@ def wait_for(bridge, *texts, timeout_s=60.0):
 
 def stop(bridge, number):
     """Signal the group; return (exit code, the rest of the output, seconds to the exit)."""
-    started = time.monotonic()
-    os.killpg(bridge.pid, number)
-    try:
-        output, _ = bridge.communicate(timeout=30)
-    except subprocess.TimeoutExpired:
-        os.killpg(bridge.pid, signal.SIGKILL)
-        output, _ = bridge.communicate()
-        pytest.fail(f'the bridge did not stop within 30 s of {number!r}:\n{output}')
-    return bridge.returncode, output, time.monotonic() - started
+    return signal_group_and_wait(bridge, number)
 
 
 def assert_clean_stop(bridge, number, rrd_path, before):
