@@ -49,6 +49,9 @@ PANELS_STOP_S, OBSERVERS_STOP_S = 10.0, 120.0
 #: Wall seconds the clock waits for a restarted panel process's panels to report again (twice
 #: the start's wait: a restart competes with the running processes for the CPU).
 RESTART_WAIT_S = 2.0 * START_WAIT_S
+#: Wall seconds without /diagnostics (sent every second) after which a panel process that
+#: reported before counts as hung and is killed, to be restarted.
+HUNG_S = 15.0
 #: Exit codes of a day that was interrupted, of one whose processes failed to start, and of
 #: one that lost a supervised process for good.
 INTERRUPTED, FAILED, LOST = 130, 1, 3
@@ -187,7 +190,8 @@ class Bringup(Program):
         for k in range(groups):
             supervisor.add(f'panel_group {k}/{groups}',
                            lambda start, k=k: plan.panel_group_command(k),
-                           group_slice(self.facade.panel_ids, k, groups), env)
+                           group_slice(self.facade.panel_ids, k, groups), env,
+                           settings_node=f'panel_group_{k}')
         self.coordinator = CoordinatorNode(
             parameter_overrides=parameters(plan.coordinator_parameters()))
         self.nodes.append(self.coordinator)
@@ -283,6 +287,7 @@ class Bringup(Program):
 
     def _supervise(self):
         """Log deaths and restarts; forget a dead process's panels until they report again."""
+        self._kill_hung()
         events = self.supervisor.check()
         for child, text in events:
             if child.state == 'running':  # rclpy wants one severity per call site
@@ -292,6 +297,8 @@ class Bringup(Program):
             print(f'facade: {text}', flush=True)
             if child.deaths and child.deaths[-1].sim_time_s is None:
                 child.deaths[-1].sim_time_s = self.monitor.clock_s
+            if child.panels:
+                self.monitor.process_heard_s.pop(child.settings_node, None)
             if child.lost:
                 self.monitor.lose(child.panels)
                 self._awaiting.pop(child.name, None)
@@ -307,6 +314,13 @@ class Bringup(Program):
                 del self._awaiting[child.name]
         if events:
             self._publish_supervision()
+
+    def _kill_hung(self):
+        """Kill a running panel process whose /diagnostics stopped for HUNG_S (it hangs)."""
+        for child in self.supervisor.children:
+            if child.panels and child.state == 'running' and \
+                    self.monitor.silent_s(child.settings_node) > HUNG_S:
+                self.supervisor.kill_hung(child, f'silent for {HUNG_S:g} s')
 
     def _publish_supervision(self):
         """One status per supervised process on /diagnostics (OK, WARN restarting, ERROR lost)."""

@@ -9,6 +9,7 @@ trails the clock, and for the progress line and summary.
 """
 
 import math
+import time
 
 import numpy as np
 from rclpy.node import Node
@@ -16,6 +17,10 @@ from rclpy.node import Node
 from flectofold_ros import contract, panel_states
 from flectofold_ros.bringup.plan import local_time
 from flectofold_ros.interfaces import subscription
+
+
+#: Name ending of a panel process's own status on /diagnostics (``panel.py``).
+PROCESS_STATUS = ': panel process'
 
 
 class Monitor(Node):
@@ -43,6 +48,8 @@ class Monitor(Node):
         """Panels whose process is dead for good: left out of readiness, lag and catching up."""
         self.behind_s = 0.0
         """Largest lag behind the clock any panel process's simulation reported [s]."""
+        self.process_heard_s = {}
+        """Panel process (settings node name) -> monotonic time of its last /diagnostics."""
         self.foreign = 0
         """``panel_states`` messages or points that are not of this facade, ignored."""
         subscription(self, contract.CLOCK, self._on_clock)
@@ -79,6 +86,11 @@ class Monitor(Node):
         """Whether every one of ``panel_ids`` has reported since it was last forgotten."""
         return bool(np.all(np.isfinite(self.state_stamp_s[self._indices(panel_ids)])))
 
+    def silent_s(self, process_name):
+        """Wall seconds since panel process ``process_name`` last reported; 0 if never yet."""
+        heard = self.process_heard_s.get(process_name)
+        return 0.0 if heard is None else time.monotonic() - heard
+
     def lose(self, panel_ids):
         """Count ``panel_ids`` lost for good."""
         self.forget(panel_ids)
@@ -89,6 +101,8 @@ class Monitor(Node):
 
     def _on_diagnostics(self, message):
         for status in message.status:
+            if status.name.endswith(PROCESS_STATUS):
+                self.process_heard_s[status.hardware_id] = time.monotonic()
             i = self._lookup.get(status.hardware_id)
             for item in status.values:
                 if item.key == contract.DIAGNOSTIC_BEHIND_S:  # a panel process's figure

@@ -6,7 +6,8 @@ what it returns into log lines, the progress line, ``/diagnostics`` and the summ
 Policy (``msg_docs/bringup.md``, "Supervision"):
 
 * a child that exits, or is killed, while the bringup has not asked it to stop is **dead**;
-  it is noticed at the next check (0.25 s);
+  it is noticed at the next check (0.25 s). A child the caller finds hung (alive but silent)
+  is killed by :meth:`Supervisor.kill_hung` and then dies the same way;
 * it is restarted after a back-off of ``initial_delay_s`` doubling with every consecutive
   death up to ``max_delay_s``; a run of ``stable_s`` or longer counts as healthy, and the next
   death starts the back-off again;
@@ -63,10 +64,14 @@ class Death:
     restarted_at_s: Optional[float] = None
     sim_time_s: Optional[float] = None
     """ROS time of the facade when it was noticed, where the caller knows it [s]."""
+    hung: str = ''
+    """Why the supervisor killed it, when it did: ``silent for 15 s``."""
 
     @property
     def cause(self):
-        """``exit 1`` or ``killed by SIGKILL``."""
+        """``exit 1``, ``killed by SIGKILL`` or ``hung (silent for 15 s), killed``."""
+        if self.hung:
+            return f'hung ({self.hung}), killed'
         if self.returncode < 0:
             try:
                 return f'killed by {signal.Signals(-self.returncode).name}'
@@ -84,6 +89,8 @@ class Child:
     """Command of start ``n`` (0 the first, 1 the first restart ...)."""
     panels: tuple = ()
     """Panel ids it hosts (none for an observer)."""
+    settings_node: str = ''
+    """Name of its settings node, under which a panel process reports on /diagnostics."""
     env: Optional[dict] = None
     process: Optional[subprocess.Popen] = None
     starts: int = 0
@@ -93,6 +100,8 @@ class Child:
     restart_at_s: Optional[float] = None
     lost: bool = False
     deaths: list = field(default_factory=list)
+    hung: str = ''
+    """Set by :meth:`Supervisor.kill_hung` until the death is noticed."""
 
     @property
     def state(self):
@@ -119,9 +128,9 @@ class Supervisor:
         self.children = []
         self.stopping = False
 
-    def add(self, name, command, panels=(), env=None):
+    def add(self, name, command, panels=(), env=None, settings_node=''):
         """Start a child now; ``command(n)`` is its command line for start ``n``."""
-        child = Child(name, command, tuple(panels), env)
+        child = Child(name, command, tuple(panels), settings_node, env)
         child.start(self.clock())
         self.children.append(child)
         return child
@@ -145,7 +154,8 @@ class Supervisor:
         code = child.process.returncode
         child.failures = child.failures + 1 if now_s - child.started_at_s < \
             self.policy.stable_s else 1
-        death = Death(child.name, child.process.pid, code, now_s, None)
+        death = Death(child.name, child.process.pid, code, now_s, None, hung=child.hung)
+        child.hung = ''
         child.deaths.append(death)
         if code == BAD_INPUT or child.failures > self.policy.restart_limit:
             child.lost = True
@@ -156,6 +166,15 @@ class Supervisor:
         child.restart_at_s = now_s + death.restart_in_s
         return (f'{child.name} (pid {death.pid}) died: {death.cause}; restart in '
                 f'{death.restart_in_s:g} s')
+
+    def kill_hung(self, child, why):
+        """Kill a running child found hung (``why``: ``silent for 15 s``).
+
+        The next :meth:`check` notices the death and restarts it as any other.
+        """
+        if child.state == 'running' and child.process.poll() is None:
+            child.hung = why
+            child.process.kill()
 
     # -- questions --------------------------------------------------------------------------
 

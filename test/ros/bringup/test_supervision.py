@@ -152,3 +152,30 @@ def test_a_killed_recorder_is_restarted_into_a_new_bag_and_the_summary_says_so(
     assert (run / 'bag.restart1' / 'metadata.yaml').exists()
     assert f'bag {run / "bag"}: INCOMPLETE' in text and 'bag_reindex' in text, text
     assert f'bag {run / "bag.restart1"}: complete' in text, text
+
+
+def test_a_hung_panel_process_is_killed_and_restarted(small_facade_file):
+    """SIGSTOP: alive but silent. Its /diagnostics stop; after 15 s it is killed, restarted."""
+    graph = Graph(domain_for(56))
+    try:
+        bringup = graph.start('facade', '--facade', str(small_facade_file), '--start', '11:00',
+                              '--end', '11:40', '--speedup', '120', '--panel-processes', '2',
+                              '--progress-period', '1')
+        output = Lines(bringup)
+        assert output.wait_for(graph, '| panels reporting 4/4', 180), output.text
+        victim = panel_processes_of(bringup.pid)[0]
+        subprocess.run(['kill', '-STOP', str(victim)], check=True)
+        stopped = time.monotonic()
+        hung = output.wait_for(graph, 'hung (silent for 15 s), killed', 60)
+        assert hung and f'(pid {victim})' in hung, output.text
+        assert 13.0 <= time.monotonic() - stopped < 25.0  # its last report came up to 1 s before
+        assert output.wait_for(graph, 'restarted (pid', 30), output.text
+        assert output.wait_for(graph, 'day finished', 240), output.text
+        bringup.wait(timeout=60)
+        output.wait_for(graph, 'never printed', 2.0)
+    finally:
+        graph.close()
+    text = output.text
+    assert bringup.returncode == 0, text
+    assert 'panels reporting: 4/4' in text and '1 deaths, 1 restarts' in text, text
+    assert 'panel_group 0/2 died at 11:' in text and 'hung (silent for 15 s), killed' in text
