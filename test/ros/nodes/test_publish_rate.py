@@ -102,7 +102,11 @@ def test_at_rest_a_panel_publishes_its_own_state_at_the_heartbeat(heard, panel_i
     pairs = _within(heard['panel'][panel_id], heard['rest'])
     stamps = np.array([stamp for _, stamp in pairs])
     assert abs(len(pairs) - REST_S / heartbeat) <= 1, (len(pairs), REST_S / heartbeat)
-    np.testing.assert_allclose(np.diff(stamps), heartbeat, atol=1e-3)
+    # never sooner than the heartbeat; a late tick sends the heartbeat with its newest state
+    gaps = np.diff(stamps)
+    assert np.all(gaps >= heartbeat - 1e-3) and np.all(gaps <= heartbeat + 2.0 / rate + 1e-3), \
+        gaps
+    assert np.count_nonzero(np.abs(gaps - heartbeat) > 1e-3) <= 2, gaps
 
 
 def test_a_moving_panel_publishes_every_state_and_the_others_keep_the_heartbeat(heard):
