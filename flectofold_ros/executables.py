@@ -51,12 +51,17 @@ def exit_with(name, code):
 def run(name, args=None):
     """Run executable ``name`` with ``args`` (``sys.argv`` when None); return its exit code."""
     module_name, stopped_code = EXECUTABLES[name]
-    with stop_signals():
+    with stop_signals() as stop:
         try:
-            module = importlib.import_module(module_name)
+            return importlib.import_module(module_name).main(args)
         except Interrupted:
             return stopped_code
-        return module.main(args)
+        except ImportError:
+            # A stop signal that lands in an extension module's initialisation comes out as
+            # "ImportError: initialization failed": the start was abandoned all the same.
+            if stop.requested:
+                return stopped_code
+            raise
 
 
 def _entry_point(name):

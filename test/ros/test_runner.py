@@ -103,3 +103,28 @@ def test_a_signal_that_lands_in_a_weakref_callback_still_stops_the_program(monke
         return None
     assert run_command('thing', body, interrupted_code=130) == 130
     assert reported == []  # nothing printed: no "Exception ignored ... Traceback"
+
+
+def test_a_signal_in_an_extension_module_s_initialisation_is_a_clean_stop(monkeypatch):
+    """pybind11 turns an exception raised in a module's init into an ImportError."""
+    import importlib
+    from flectofold_ros import executables
+
+    def importing(name):
+        try:
+            deliver()
+        except Interrupted as error:
+            raise ImportError('initialization failed') from error
+    monkeypatch.setattr(importlib, 'import_module', importing)
+    assert executables.run('fold_table', []) == executables.EXECUTABLES['fold_table'][1]
+
+
+def test_an_import_error_without_a_signal_is_not_hidden(monkeypatch):
+    import importlib
+    from flectofold_ros import executables
+
+    def importing(name):
+        raise ImportError('no such module')
+    monkeypatch.setattr(importlib, 'import_module', importing)
+    with pytest.raises(ImportError, match='no such module'):
+        executables.run('fold_table', [])
