@@ -61,6 +61,15 @@ class Lines:
         return ''.join(self.lines)
 
 
+def start_day(graph, facade_file, end, *options):
+    """Start ``facade`` from 11:00 to ``end`` at 120x; return it and its output once all report."""
+    bringup = graph.start('facade', '--facade', str(facade_file), '--start', '11:00', '--end',
+                          end, '--speedup', '120', '--progress-period', '1', *options)
+    output = Lines(bringup)
+    assert output.wait_for(graph, '| panels reporting 4/4', 180), output.text
+    return bringup, output
+
+
 def test_a_killed_panel_process_is_restarted_and_its_panels_track_again(small_facade_file):
     graph = Graph(domain_for(51))
     supervision = []
@@ -68,11 +77,7 @@ def test_a_killed_panel_process_is_restarted_and_its_panels_track_again(small_fa
         (status.hardware_id, ord(status.level), status.message) for status in message.status
         if status.name.endswith(': supervision')))
     try:
-        bringup = graph.start('facade', '--facade', str(small_facade_file), '--start', '11:00',
-                              '--end', '11:40', '--speedup', '120', '--panel-processes', '2',
-                              '--progress-period', '1')
-        output = Lines(bringup)
-        assert output.wait_for(graph, '| panels reporting 4/4', 180), output.text
+        bringup, output = start_day(graph, small_facade_file, '11:40', '--panel-processes', '2')
         victim = panel_processes_of(bringup.pid)[-1]
         signal_sent = time.monotonic()
         subprocess.run(['kill', '-KILL', str(victim)], check=True)
@@ -104,12 +109,8 @@ def test_panels_lost_for_good_end_the_day_with_exit_code_3(small_facade_file, tm
     faults.write_text("- {at: '11:05', panels: [r01c01], fault: supply_loss}\n")
     graph = Graph(domain_for(52))
     try:
-        bringup = graph.start('facade', '--facade', str(small_facade_file), '--start', '11:00',
-                              '--end', '11:30', '--speedup', '120', '--panel-processes', '2',
-                              '--progress-period', '1', '--restart-limit', '0',
-                              '--faults', str(faults))
-        output = Lines(bringup)
-        assert output.wait_for(graph, '| panels reporting 4/4', 180), output.text
+        bringup, output = start_day(graph, small_facade_file, '11:30', '--panel-processes', '2',
+                                    '--restart-limit', '0', '--faults', str(faults))
         subprocess.run(['kill', '-KILL', str(panel_processes_of(bringup.pid)[0])], check=True)
         assert output.wait_for(graph, 'not restarted', 30), output.text
         assert output.wait_for(graph, '(2 lost)', 30), output.text
@@ -129,12 +130,8 @@ def test_a_killed_recorder_is_restarted_into_a_new_bag_and_the_summary_says_so(
         small_facade_file, tmp_path):
     graph = Graph(domain_for(55))
     try:
-        bringup = graph.start('facade', '--facade', str(small_facade_file), '--start', '11:00',
-                              '--end', '11:40', '--speedup', '120', '--panel-processes', '1',
-                              '--progress-period', '1', '--record', '--out',
-                              str(tmp_path / 'out'))
-        output = Lines(bringup)
-        assert output.wait_for(graph, '| panels reporting 4/4', 180), output.text
+        bringup, output = start_day(graph, small_facade_file, '11:40', '--panel-processes', '1',
+                                    '--record', '--out', str(tmp_path / 'out'))
         graph.spin_for(3.0)  # the recorder writes a few seconds of the day
         listing = subprocess.run(['pgrep', '-P', str(bringup.pid), '-f', 'bag_recorder'],
                                  capture_output=True, text=True).stdout.split()
@@ -158,11 +155,7 @@ def test_a_hung_panel_process_is_killed_and_restarted(small_facade_file):
     """SIGSTOP: alive but silent. Its /diagnostics stop; after 15 s it is killed, restarted."""
     graph = Graph(domain_for(56))
     try:
-        bringup = graph.start('facade', '--facade', str(small_facade_file), '--start', '11:00',
-                              '--end', '11:40', '--speedup', '120', '--panel-processes', '2',
-                              '--progress-period', '1')
-        output = Lines(bringup)
-        assert output.wait_for(graph, '| panels reporting 4/4', 180), output.text
+        bringup, output = start_day(graph, small_facade_file, '11:40', '--panel-processes', '2')
         victim = panel_processes_of(bringup.pid)[0]
         subprocess.run(['kill', '-STOP', str(victim)], check=True)
         stopped = time.monotonic()
