@@ -3,7 +3,7 @@
 Vectorised over many panels, in sub-packages by concept:
 
 ================  ===============================================================================
-``kinematics``    the panel, its mid-rib elastica, the reflected flaps, closure, folded meshes
+``kinematics``    quad and hexagonal panels, the bent centre, reflected flaps, closure, meshes
 ``actuation``     laminates and cushion, pressure <-> closure, the pneumatic plant
 ``control``       the pressure loop, setpoint guard, valve interface, the loops nodes share
 ``facade``        facade descriptions (YAML), surfaces and their tessellation
@@ -15,11 +15,15 @@ Vectorised over many panels, in sub-packages by concept:
 The names below are the kinematic core; each sub-package's ``__init__`` names its own.
 """
 
-from flectofold_model.kinematics import (DEFAULT_TOPOLOGY, DEMONSTRATOR_MODULE, fold_mesh,
-                                         FoldMesh, FoldModel, FoldState, MeshTopology, PanelBatch,
+from flectofold_model.kinematics import (batch_of, DEFAULT_TOPOLOGY, DEMONSTRATOR_MODULE,
+                                         fold_mesh, fold_model_of, FoldMesh, FoldModel, FoldState,
+                                         HEXAGON_MODULE, HexagonBatch, HexagonFoldModel,
+                                         HexagonPanel, MeshTopology, panel_kind, PanelBatch,
                                          PanelGeometry, PROTOTYPE)
 
 __all__ = [
     'DEFAULT_TOPOLOGY', 'DEMONSTRATOR_MODULE', 'FoldMesh', 'FoldModel', 'FoldState',
-    'MeshTopology', 'PROTOTYPE', 'PanelBatch', 'PanelGeometry', 'fold_mesh',
+    'HEXAGON_MODULE', 'HexagonBatch', 'HexagonFoldModel', 'HexagonPanel', 'MeshTopology',
+    'PROTOTYPE', 'PanelBatch', 'PanelGeometry', 'batch_of', 'fold_mesh', 'fold_model_of',
+    'panel_kind',
 ]

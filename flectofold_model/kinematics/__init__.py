@@ -4,15 +4,22 @@
 - :mod:`.elastica`: the mid-rib as a pinned Euler elastica, in closed form;
 - :mod:`.reflection`: fold planes, the crease and fold angles (the reflection method);
 - :mod:`.closure`: closure <-> fold angle <-> elastica <-> support displacement;
-- :mod:`.mesh`: folded triangle meshes of many panels at once.
+- :mod:`.mesh`: folded triangle meshes of many panels at once;
+- :mod:`.hexagon`: hexagonal panels with three fold lines;
+- :mod:`.kinds`: both panel kinds behind one interface.
 """
 
 from flectofold_model.kinematics.closure import FoldModel, FoldState
+from flectofold_model.kinematics.hexagon import (HEXAGON_MODULE, HexagonBatch, HexagonFoldModel,
+                                                 HexagonPanel)
+from flectofold_model.kinematics.kinds import batch_of, fold_model_of, panel_kind
 from flectofold_model.kinematics.mesh import DEFAULT_TOPOLOGY, fold_mesh, FoldMesh, MeshTopology
 from flectofold_model.kinematics.panel import (DEMONSTRATOR_MODULE, PanelBatch, PanelGeometry,
                                                PROTOTYPE)
 
 __all__ = [
     'DEFAULT_TOPOLOGY', 'DEMONSTRATOR_MODULE', 'FoldMesh', 'FoldModel', 'FoldState',
-    'MeshTopology', 'PROTOTYPE', 'PanelBatch', 'PanelGeometry', 'fold_mesh',
+    'HEXAGON_MODULE', 'HexagonBatch', 'HexagonFoldModel', 'HexagonPanel', 'MeshTopology',
+    'PROTOTYPE', 'PanelBatch', 'PanelGeometry', 'batch_of', 'fold_mesh', 'fold_model_of',
+    'panel_kind',
 ]

@@ -24,6 +24,7 @@ import numpy as np
 
 from flectofold_model._validate import in_range, real_array
 from flectofold_model.kinematics import elastica
+from flectofold_model.kinematics.mesh import DEFAULT_TOPOLOGY, fold_mesh
 from flectofold_model.kinematics.panel import PanelBatch
 from flectofold_model.kinematics.reflection import (apex_fold_angle, crease_mismatch_m, flap_tip,
                                                     sag_for_apex_fold_angle)
@@ -51,6 +52,11 @@ class FoldState:
     """Distance flap tip A moved from the unactuated state (D moves the same) [m]."""
     amplification: np.ndarray
     """``tip_travel_m / support_displacement_m``; NaN at zero displacement."""
+
+    @property
+    def shape_parameter(self):
+        """The one number that fixes the shape: the elastica modulus."""
+        return self.elastica_k
 
 
 class FoldModel:
@@ -85,6 +91,25 @@ class FoldModel:
 
     def __len__(self):
         return len(self.batch)
+
+    @property
+    def open_shape(self):
+        """Shape parameter (elastica modulus) of the open state, (N,)."""
+        return self.open_k
+
+    @property
+    def closed_shape(self):
+        """Shape parameter (elastica modulus) of the closed state, (N,)."""
+        return self.closed_k
+
+    def shape_from_fold_angle(self, fold_angle_rad):
+        """Elastica modulus for apex fold angles [rad] between the open and closed limits."""
+        self.closure_from_fold_angle(fold_angle_rad)
+        return self._k_for_fold_angle(self._per_panel('fold_angle_rad', fold_angle_rad))
+
+    def mesh(self, shape, topology=None, dtype=np.float64, out=None):
+        """Folded meshes at shape parameters (elastica moduli) ``shape`` (N,)."""
+        return fold_mesh(self.batch, shape, topology or DEFAULT_TOPOLOGY, dtype, out)
 
     def _check_hinges(self):
         too_narrow = self.crease_mismatch_m > self.batch.hinge_width_m
@@ -163,6 +188,8 @@ class FoldModel:
         in_range('elastica_k', k - self.open_k, 0.0, np.inf)
         in_range('elastica_k', k - self.closed_k, -np.inf, 0.0)
         return self._state(k)
+
+    state_from_shape = state_from_k
 
     def _state(self, k, displacement=None):
         length = self.batch.length_m

@@ -1,0 +1,229 @@
+"""Closure <-> apex fold angle <-> centre rise of hexagonal panels, vectorised over panels.
+
+The state of a hexagonal panel is the rise ``d`` of its centre point along the triangle's
+normal (the cushion's stroke). Closure is linear in the apex fold angle, as for the quad
+panel: ``closure = (rho0 - rho_prefold) / (rho_closed - rho_prefold)``; the apex fold angle
+grows strictly with the rise (the model checks it on a grid of states at construction), so
+every map here is monotone and invertible. The closed state is the first of
+
+* the flap tips' limit: the three tips close toward the axis over the centre, as a trap does;
+  they stay ``closed_clearance_m`` apart (each ``clearance / sqrt 3`` from the axis);
+* the neighbours' limit: neighbouring flaps are mirror images across the vertical plane
+  through their shared vertex, so a flap must not reach that plane (its boundary is sampled);
+* the lean limit: an apex fold angle of :data:`MAX_APEX_FOLD_ANGLE_RAD`. A hexagonal
+  panel's flaps are narrower than the central part is wide, so their tips cannot meet over
+  the centre; folded further, each flap would lean back over the central part toward lying on
+  it. The quad panel's elastica limit plays the same part.
+
+The search for the closed rise stays below a spoke tilt of :data:`MAX_SPOKE_TILT_RAD`.
+"""
+
+from dataclasses import dataclass
+import math
+
+import numpy as np
+
+from flectofold_model._validate import in_range, real_array
+from flectofold_model.kinematics.hexagon import cone
+from flectofold_model.kinematics.hexagon.mesh import DEFAULT_HEXAGON_TOPOLOGY, hexagon_mesh
+from flectofold_model.kinematics.hexagon.panel import (hexagon_radius_m, HexagonBatch,
+                                                       SECTOR_RAD)
+from flectofold_model.kinematics.hexagon.reflection import SectorGeometry
+
+#: Largest apex fold angle [rad]: the flaps lean 30 degrees past upright over the centre.
+MAX_APEX_FOLD_ANGLE_RAD = math.radians(120.0)
+#: Largest spoke tilt searched [rad]: a steeper cone is no longer a small rise.
+MAX_SPOKE_TILT_RAD = math.radians(25.0)
+_BISECTIONS = 52
+#: Closure a computed fold angle may miss its interval by (the bisections' rounding).
+_ROUNDING = 1e-9
+_MONOTONE_CHECK_STATES = 33
+
+
+@dataclass(frozen=True)
+class HexagonFoldState:
+    """Kinematic state of every hexagonal panel of a batch; each field has shape ``(N,)``."""
+
+    closure: np.ndarray
+    """0 open ... 1 closed."""
+    centre_rise_m: np.ndarray
+    """Rise of the centre point along the triangle's normal [m]."""
+    vertex_displacement_m: np.ndarray
+    """Inward travel of each triangle vertex, ``R - sqrt(R**2 - d**2)`` [m]."""
+    spoke_tilt_rad: np.ndarray
+    """Downward tilt of the spokes from the centre to the vertices [rad]."""
+    cone_amplitude_rad: np.ndarray
+    """Elevation amplitude of the central cone between spokes [rad]."""
+    apex_fold_angle_rad: np.ndarray
+    """Fold angle (deviation from flat) at each crease apex [rad]."""
+    tip_travel_m: np.ndarray
+    """Distance each flap tip moved from the unactuated state [m]."""
+    amplification: np.ndarray
+    """``tip_travel_m`` over the rise travelled since the open state; NaN there."""
+
+    @property
+    def shape_parameter(self):
+        """The one number that fixes the shape: the centre rise [m]."""
+        return self.centre_rise_m
+
+
+class HexagonFoldModel:
+    """The closure map of a :class:`~.panel.HexagonBatch`, vectorised over panels.
+
+    Construction finds each panel's open (pre-fold) and closed rises. It raises
+    ``ValueError`` for a pre-fold at or beyond the closed limit and for a hinge zone narrower
+    than the gap between the crease and the drawn fold line.
+    """
+
+    def __init__(self, batch):
+        if not isinstance(batch, HexagonBatch):
+            raise TypeError(f'HexagonFoldModel needs a HexagonBatch, got {type(batch).__name__}')
+        self.batch = batch
+        self.max_rise_m = batch.circumradius_m * math.sin(MAX_SPOKE_TILT_RAD)
+        self.closed_rise_m = self._closed_rise()
+        self.closed_fold_angle_rad = SectorGeometry(batch, self.closed_rise_m).apex_fold_angle_rad
+        self.open_fold_angle_rad = batch.prefold_rad
+        too_folded = self.open_fold_angle_rad >= self.closed_fold_angle_rad
+        if np.any(too_folded):
+            index = int(np.flatnonzero(too_folded)[0])
+            raise ValueError(
+                f'panel {index}: prefold_rad={self.open_fold_angle_rad[index]:g} rad is at or '
+                f'beyond the closed limit {self.closed_fold_angle_rad[index]:.4g} rad')
+        self.open_rise_m = self._rise_for_fold_angle(self.open_fold_angle_rad)
+        self._open_tip = SectorGeometry(batch, self.open_rise_m).flap_tip
+        self._check_monotone()
+        self.crease_mismatch_m = np.maximum(
+            SectorGeometry(batch, self.open_rise_m).crease_mismatch_m(),
+            SectorGeometry(batch, self.closed_rise_m).crease_mismatch_m())
+        self._check_hinges()
+
+    def __len__(self):
+        return len(self.batch)
+
+    @property
+    def open_shape(self):
+        """Shape parameter (centre rise [m]) of the open state, (N,)."""
+        return self.open_rise_m
+
+    @property
+    def closed_shape(self):
+        """Shape parameter (centre rise [m]) of the closed state, (N,)."""
+        return self.closed_rise_m
+
+    def _within_limits(self, rise_m):
+        geometry = SectorGeometry(self.batch, rise_m)
+        tip = geometry.flap_tip
+        tips_apart = np.hypot(tip[:, 0], tip[:, 1]) * math.sqrt(3.0) >= \
+            self.batch.closed_clearance_m
+        return tips_apart & (self._wedge_margin_m(geometry) > 0.0)
+
+    def _wedge_margin_m(self, geometry):
+        """Smallest distance of flap 0's boundary from the planes through T_0 and T_1."""
+        phi = np.linspace(0.0, SECTOR_RAD, 49)[1:-1]
+        boundary = geometry.flap_points(phi, hexagon_radius_m(self.batch.circumradius_m[:, None],
+                                                              phi))
+        azimuth = np.arctan2(boundary[..., 1], boundary[..., 0])
+        radius = np.hypot(boundary[..., 0], boundary[..., 1])
+        from_first = np.mod(azimuth - math.pi / 2, 2 * math.pi)
+        inside = from_first <= SECTOR_RAD
+        to_plane = radius * np.sin(np.minimum(from_first, SECTOR_RAD - from_first))
+        return np.min(np.where(inside, to_plane, -radius), axis=-1)
+
+    def _closed_rise(self):
+        leaning = self._rise_for_fold_angle(np.full(len(self.batch), MAX_APEX_FOLD_ANGLE_RAD),
+                                            self.max_rise_m)
+        low, high = np.zeros(len(self.batch)), leaning.copy()
+        fits = self._within_limits(high)
+        for _ in range(_BISECTIONS):
+            middle = (low + high) / 2.0
+            ok = self._within_limits(np.maximum(middle, 1e-9))
+            low, high = np.where(ok, middle, low), np.where(ok, high, middle)
+        return np.where(fits, leaning, low)
+
+    def _rise_for_fold_angle(self, fold_angle_rad, highest=None):
+        low = np.zeros(len(self.batch))
+        high = (self.closed_rise_m if highest is None else highest).copy()
+        for _ in range(_BISECTIONS):
+            middle = (low + high) / 2.0
+            short = SectorGeometry(self.batch, middle).apex_fold_angle_rad < fold_angle_rad
+            low, high = np.where(short, middle, low), np.where(short, high, middle)
+        return (low + high) / 2.0
+
+    def _check_monotone(self):
+        fractions = np.linspace(0.0, 1.0, _MONOTONE_CHECK_STATES)
+        rises = self.open_rise_m[:, None] + fractions * (self.closed_rise_m
+                                                         - self.open_rise_m)[:, None]
+        repeated = self.batch.take(np.repeat(np.arange(len(self)), fractions.size))
+        angles = SectorGeometry(repeated, rises.ravel()).apex_fold_angle_rad
+        if np.any(np.diff(angles.reshape(rises.shape), axis=-1) <= 0.0):
+            raise ValueError('the apex fold angle does not grow with the centre rise: the '
+                             'closure map would not invert')
+
+    def _check_hinges(self):
+        too_narrow = self.crease_mismatch_m > self.batch.hinge_width_m
+        if np.any(too_narrow):
+            index = int(np.flatnonzero(too_narrow)[0])
+            raise ValueError(
+                f'panel {index}: hinge_width_m={self.batch.hinge_width_m[index]:g} m cannot '
+                f'absorb the {self.crease_mismatch_m[index] * 1e3:.1f} mm by which the '
+                f'crease leaves the drawn fold line; widen the hinge zone or change '
+                f'fold_line_sag_m')
+
+    def _per_panel(self, name, value):
+        array = real_array(name, value)
+        try:
+            return np.broadcast_to(array, (len(self),))
+        except ValueError:
+            raise ValueError(f'{name} has shape {array.shape}; expected a scalar or '
+                             f'({len(self)},) for {len(self)} panels') from None
+
+    def fold_angle_from_closure(self, closure):
+        """Apex fold angle [rad] for closure in [0, 1]."""
+        closure = in_range('closure', self._per_panel('closure', closure), 0.0, 1.0)
+        return self.open_fold_angle_rad + closure * (self.closed_fold_angle_rad
+                                                     - self.open_fold_angle_rad)
+
+    def closure_from_fold_angle(self, fold_angle_rad):
+        """Closure for apex fold angles [rad] between the open and closed limits."""
+        fold_angle_rad = self._per_panel('fold_angle_rad', fold_angle_rad)
+        closure = ((fold_angle_rad - self.open_fold_angle_rad)
+                   / (self.closed_fold_angle_rad - self.open_fold_angle_rad))
+        in_range('closure for fold_angle_rad', closure, -_ROUNDING, 1.0 + _ROUNDING)
+        return np.clip(closure, 0.0, 1.0)
+
+    def shape_from_fold_angle(self, fold_angle_rad):
+        """Centre rise [m] for apex fold angles [rad] between the open and closed limits."""
+        self.closure_from_fold_angle(fold_angle_rad)
+        return self._rise_for_fold_angle(self._per_panel('fold_angle_rad', fold_angle_rad))
+
+    def state_from_closure(self, closure):
+        """Full :class:`HexagonFoldState` for closure in [0, 1] (scalar or one per panel)."""
+        return self._state(self._rise_for_fold_angle(self.fold_angle_from_closure(closure)))
+
+    def state_from_rise(self, centre_rise_m):
+        """Full :class:`HexagonFoldState` for centre rises [m] between open and closed."""
+        rise = self._per_panel('centre_rise_m', centre_rise_m)
+        in_range('centre_rise_m - its open value', rise - self.open_rise_m, -1e-12, np.inf)
+        in_range('centre_rise_m - its closed value', rise - self.closed_rise_m, -np.inf, 1e-12)
+        return self._state(np.clip(rise, self.open_rise_m, self.closed_rise_m))
+
+    state_from_shape = state_from_rise
+
+    def _state(self, rise):
+        geometry = SectorGeometry(self.batch, rise)
+        fold_angle = geometry.apex_fold_angle_rad
+        closure = ((fold_angle - self.open_fold_angle_rad)
+                   / (self.closed_fold_angle_rad - self.open_fold_angle_rad))
+        travel = np.linalg.norm(geometry.flap_tip - self._open_tip, axis=-1)
+        stroke = rise - self.open_rise_m
+        with np.errstate(divide='ignore', invalid='ignore'):
+            amplification = np.where(stroke > 0, travel / stroke, np.nan)
+        return HexagonFoldState(
+            closure=np.clip(closure, 0.0, 1.0), centre_rise_m=rise,
+            vertex_displacement_m=cone.vertex_displacement_m(self.batch, rise),
+            spoke_tilt_rad=geometry.tilt_rad, cone_amplitude_rad=geometry.amplitude_rad,
+            apex_fold_angle_rad=fold_angle, tip_travel_m=travel, amplification=amplification)
+
+    def mesh(self, shape, topology=None, dtype=np.float64, out=None):
+        """Folded meshes at shape parameters (centre rises [m]) ``shape`` (N,)."""
+        return hexagon_mesh(self.batch, shape, topology or DEFAULT_HEXAGON_TOPOLOGY, dtype, out)

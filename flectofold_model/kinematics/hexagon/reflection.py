@@ -1,0 +1,110 @@
+"""Fold planes, crease, fold angles and flap tips of a hexagonal panel (the reflection method).
+
+Flap ``i`` is the mirror image of the central cone, extended beyond fold line ``i``, across the
+three-point plane through the displaced fold-line ends ``T_i'``, ``T_(i+1)'`` and the displaced
+apex ``M_i'`` (Koerner et al. 2018, section 6, as for the quad panel). Every function here
+works on sector 0 (flap 0, between ``T_0`` at 90 degrees and ``T_1`` at 210 degrees); the panel
+has three-fold symmetry, so flaps 1 and 2 are flap 0 turned by 120 and 240 degrees about z.
+
+The crease is where the cone meets the plane: on the ruling at sector angle ``phi`` it lies at
+``rho_c = (offset - n . C') / (n . g(phi))`` from the centre. It passes exactly through
+``T_i``, ``M_i`` and ``T_(i+1)``; between them it leaves the drawn B-spline by a little
+(:func:`crease_mismatch_m`), which the hinge zone absorbs. The fold angle along the crease is
+twice the angle between the cone's tangent plane and the mirror plane.
+"""
+
+import math
+
+import numpy as np
+
+from flectofold_model.kinematics.hexagon import cone
+from flectofold_model.kinematics.hexagon.fold_lines import drawn_radius_m
+from flectofold_model.kinematics.hexagon.panel import SECTOR_RAD
+
+MID_SECTOR_RAD = SECTOR_RAD / 2
+
+
+def centre_point(rise_m):
+    """Displaced centre ``C'`` (N, 3) [m]."""
+    rise_m = np.asarray(rise_m, dtype=np.float64)
+    return np.stack([np.zeros_like(rise_m), np.zeros_like(rise_m), rise_m], axis=-1)
+
+
+def plane_through(first, second, third):
+    """Plane ``(normal (N, 3), offset (N,))`` through three points, normal toward +z."""
+    normal = np.cross(second - first, third - first)
+    normal *= np.sign(normal[..., 2:3]) / np.linalg.norm(normal, axis=-1, keepdims=True)
+    return normal, np.einsum('...i,...i->...', normal, first)
+
+
+def reflect(points, normal, offset):
+    """Mirror ``points`` (..., 3) across planes ``normal . p = offset`` (broadcasting)."""
+    distance = np.einsum('...i,...i->...', points, normal) - offset
+    return points - 2.0 * distance[..., None] * normal
+
+
+class SectorGeometry:
+    """Cone, fold plane and crease of sector 0 for every panel of a batch at rises ``d`` (N,)."""
+
+    def __init__(self, batch, rise_m):
+        self.batch = batch
+        self.rise_m = np.asarray(rise_m, dtype=np.float64)
+        self.tilt_rad = cone.spoke_tilt_rad(batch, self.rise_m)
+        self.amplitude_rad = cone.cone_amplitude_rad(self.tilt_rad)
+        self.centre = centre_point(self.rise_m)
+        ends = self.on_cone(np.array([0.0, MID_SECTOR_RAD, SECTOR_RAD]),
+                            np.stack([batch.circumradius_m, batch.apex_radius_m,
+                                      batch.circumradius_m], axis=-1))
+        self.normal, self.offset = plane_through(ends[:, 0], ends[:, 2], ends[:, 1])
+
+    def directions(self, phi):
+        """Return the unit rulings (N, P, 3) of the cone at sector angles (P,)."""
+        return cone.ruling_direction(self.tilt_rad, self.amplitude_rad, phi)
+
+    def on_cone(self, phi, radius_m):
+        """Cone points (N, P, 3) at sector angles (P,) and distances from the apex (N, P)."""
+        return self.centre[:, None, :] + radius_m[..., None] * self.directions(phi)
+
+    def crease_radius_m(self, phi):
+        """Distance of the crease from the centre along the rulings at ``phi`` (N, P) [m]."""
+        height = self.offset - np.einsum('ni,ni->n', self.normal, self.centre)
+        return height[:, None] / np.einsum('npi,ni->np', self.directions(phi), self.normal)
+
+    def surface_normal(self, phi):
+        """Return the unit front normals (N, P, 3) of the cone along the rulings at ``phi``."""
+        normal = np.cross(self.directions(phi),
+                          cone.ruling_direction_rate(self.tilt_rad, self.amplitude_rad, phi))
+        return normal * (np.sign(normal[..., 2:3])
+                         / np.linalg.norm(normal, axis=-1, keepdims=True))
+
+    def fold_angle_rad(self, phi):
+        """Fold angle (deviation from flat) along the crease at ``phi`` (N, P) [rad]."""
+        cosine = np.abs(np.einsum('npi,ni->np', self.surface_normal(phi), self.normal))
+        return 2.0 * np.arccos(np.clip(cosine, -1.0, 1.0))
+
+    @property
+    def apex_fold_angle_rad(self):
+        """Fold angle at the apex ``M_0`` of the crease (N,) [rad]."""
+        return self.fold_angle_rad(np.array([MID_SECTOR_RAD]))[:, 0]
+
+    def flap_points(self, phi, radius_m):
+        """Folded positions (N, P, 3) of flap-0 points given flat polar coordinates."""
+        return reflect(self.on_cone(phi, radius_m), self.normal[:, None], self.offset[:, None])
+
+    @property
+    def flap_tip(self):
+        """Folded flap tip ``H_0`` (N, 3) [m]."""
+        return self.flap_points(np.array([MID_SECTOR_RAD]),
+                                self.batch.circumradius_m[:, None])[:, 0]
+
+    def crease_mismatch_m(self, count=121):
+        """Largest radial gap between the crease and the drawn fold line (N,) [m]."""
+        phi = np.linspace(0.0, SECTOR_RAD, count)
+        return np.max(np.abs(self.crease_radius_m(phi) - drawn_radius_m(self.batch, phi)),
+                      axis=-1)
+
+
+def rotation_about_z(angle_rad):
+    """(3, 3) rotation matrix by ``angle_rad`` about z."""
+    c, s = math.cos(angle_rad), math.sin(angle_rad)
+    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
