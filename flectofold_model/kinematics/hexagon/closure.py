@@ -18,10 +18,11 @@ every map here is monotone and invertible. The closed state is the first of
 The search for the closed rise stays below a spoke tilt of :data:`MAX_SPOKE_TILT_RAD`.
 """
 
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 import math
 
 import numpy as np
+from scipy.optimize.elementwise import find_root
 
 from flectofold_model._validate import in_range, real_array
 from flectofold_model.kinematics.hexagon import cone
@@ -37,6 +38,7 @@ MAX_SPOKE_TILT_RAD = math.radians(25.0)
 _BISECTIONS = 52
 #: Closure a computed fold angle may miss its interval by (the bisections' rounding).
 _ROUNDING = 1e-9
+_ROOT_TOLERANCES = {'xatol': 1e-15, 'xrtol': 4 * np.finfo(float).eps}
 _MONOTONE_CHECK_STATES = 33
 
 
@@ -67,6 +69,30 @@ class HexagonFoldState:
         return self.centre_rise_m
 
 
+#: What construction computes per panel (copied from the distinct panels' model).
+_BUILT = ('max_rise_m', 'closed_rise_m', 'closed_fold_angle_rad', 'open_fold_angle_rad',
+          'open_rise_m', '_open_tip', 'crease_mismatch_m')
+
+
+def _distinct_rows(batch):
+    """Index of each distinct panel's first occurrence, and each panel's distinct row (N,)."""
+    columns = np.stack([getattr(batch, field.name) for field in fields(batch)], axis=-1)
+    _, first, row = np.unique(columns, axis=0, return_index=True, return_inverse=True)
+    return first, row.reshape(-1)
+
+
+def _wedge_margin_m(batch, geometry):
+    """Smallest distance of flap 0's boundary from the planes through T_0 and T_1 [m]."""
+    phi = np.linspace(0.0, SECTOR_RAD, 49)[1:-1]
+    boundary = geometry.flap_points(phi, hexagon_radius_m(batch.circumradius_m[:, None], phi))
+    azimuth = np.arctan2(boundary[..., 1], boundary[..., 0])
+    radius = np.hypot(boundary[..., 0], boundary[..., 1])
+    from_first = np.mod(azimuth - math.pi / 2, 2 * math.pi)
+    inside = from_first <= SECTOR_RAD
+    to_plane = radius * np.sin(np.minimum(from_first, SECTOR_RAD - from_first))
+    return np.min(np.where(inside, to_plane, -radius), axis=-1)
+
+
 class HexagonFoldModel:
     """The closure map of a :class:`~.panel.HexagonBatch`, vectorised over panels.
 
@@ -79,6 +105,17 @@ class HexagonFoldModel:
         if not isinstance(batch, HexagonBatch):
             raise TypeError(f'HexagonFoldModel needs a HexagonBatch, got {type(batch).__name__}')
         self.batch = batch
+        first, row = _distinct_rows(batch)
+        source = self if len(first) == len(batch) else HexagonFoldModel(batch.take(first))
+        if source is self:
+            self._build()
+        else:
+            for name in _BUILT:
+                setattr(self, name, getattr(source, name)[row])
+
+    def _build(self):
+        """Open and closed states and the construction checks, for distinct panels."""
+        batch = self.batch
         self.max_rise_m = batch.circumradius_m * math.sin(MAX_SPOKE_TILT_RAD)
         self.closed_rise_m = self._closed_rise()
         self.closed_fold_angle_rad = SectorGeometry(batch, self.closed_rise_m).apex_fold_angle_rad
@@ -110,44 +147,41 @@ class HexagonFoldModel:
         """Shape parameter (centre rise [m]) of the closed state, (N,)."""
         return self.closed_rise_m
 
-    def _within_limits(self, rise_m):
-        geometry = SectorGeometry(self.batch, rise_m)
+    @staticmethod
+    def _within_limits(batch, rise_m):
+        geometry = SectorGeometry(batch, rise_m)
         tip = geometry.flap_tip
-        tips_apart = np.hypot(tip[:, 0], tip[:, 1]) * math.sqrt(3.0) >= \
-            self.batch.closed_clearance_m
-        return tips_apart & (self._wedge_margin_m(geometry) > 0.0)
-
-    def _wedge_margin_m(self, geometry):
-        """Smallest distance of flap 0's boundary from the planes through T_0 and T_1."""
-        phi = np.linspace(0.0, SECTOR_RAD, 49)[1:-1]
-        boundary = geometry.flap_points(phi, hexagon_radius_m(self.batch.circumradius_m[:, None],
-                                                              phi))
-        azimuth = np.arctan2(boundary[..., 1], boundary[..., 0])
-        radius = np.hypot(boundary[..., 0], boundary[..., 1])
-        from_first = np.mod(azimuth - math.pi / 2, 2 * math.pi)
-        inside = from_first <= SECTOR_RAD
-        to_plane = radius * np.sin(np.minimum(from_first, SECTOR_RAD - from_first))
-        return np.min(np.where(inside, to_plane, -radius), axis=-1)
+        tips_apart = np.hypot(tip[:, 0], tip[:, 1]) * math.sqrt(3.0) >= batch.closed_clearance_m
+        return tips_apart & (_wedge_margin_m(batch, geometry) > 0.0)
 
     def _closed_rise(self):
         leaning = self._rise_for_fold_angle(np.full(len(self.batch), MAX_APEX_FOLD_ANGLE_RAD),
                                             self.max_rise_m)
-        low, high = np.zeros(len(self.batch)), leaning.copy()
-        fits = self._within_limits(high)
-        for _ in range(_BISECTIONS):
-            middle = (low + high) / 2.0
-            ok = self._within_limits(np.maximum(middle, 1e-9))
-            low, high = np.where(ok, middle, low), np.where(ok, high, middle)
-        return np.where(fits, leaning, low)
+        crowded = np.flatnonzero(~self._within_limits(self.batch, leaning))
+        if crowded.size:
+            batch = self.batch.take(crowded)
+            low, high = np.zeros(crowded.size), leaning[crowded]
+            for _ in range(_BISECTIONS):
+                middle = (low + high) / 2.0
+                ok = self._within_limits(batch, np.maximum(middle, 1e-9))
+                low, high = np.where(ok, middle, low), np.where(ok, high, middle)
+            leaning = leaning.copy()
+            leaning[crowded] = low
+        return leaning
 
     def _rise_for_fold_angle(self, fold_angle_rad, highest=None):
-        low = np.zeros(len(self.batch))
-        high = (self.closed_rise_m if highest is None else highest).copy()
-        for _ in range(_BISECTIONS):
-            middle = (low + high) / 2.0
-            short = SectorGeometry(self.batch, middle).apex_fold_angle_rad < fold_angle_rad
-            low, high = np.where(short, middle, low), np.where(short, high, middle)
-        return (low + high) / 2.0
+        """Centre rise for apex fold angles (N,), by scipy's bracketing root finder."""
+        high = self.closed_rise_m if highest is None else highest
+        goal = np.broadcast_to(np.asarray(fold_angle_rad, dtype=np.float64), (len(self),))
+
+        def miss(rise, target, index):
+            return SectorGeometry(self.batch.take(index), rise).apex_fold_angle_rad - target
+
+        result = find_root(miss, (np.zeros(len(self)), high.copy()),
+                           args=(goal, np.arange(len(self))), tolerances=_ROOT_TOLERANCES)
+        if not np.all(result.success):
+            raise ArithmeticError('the centre rise for a fold angle did not converge')
+        return np.clip(result.x, 0.0, high)
 
     def _check_monotone(self):
         fractions = np.linspace(0.0, 1.0, _MONOTONE_CHECK_STATES)

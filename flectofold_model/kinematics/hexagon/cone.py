@@ -16,7 +16,8 @@ module takes the ruling elevation
 (smooth across the spokes, symmetric about each flap's mid-azimuth) and the azimuth that
 unit speed leaves, ``a'(phi) = sqrt(1 - e'(phi)**2) / cos e(phi)``. The amplitude ``A`` is the
 one that turns each sector by exactly 2 pi / 3, so the three sectors close around the centre;
-:func:`cone_amplitude_rad` finds it by bisection (the turn falls strictly as ``A`` grows).
+:func:`cone_amplitude_rad` finds it by Newton's method (the turn falls strictly as ``A``
+grows).
 
 A cone is the shape a thin sheet takes when one point is pushed out of its plane (a
 developable cone, Cerda & Mahadevan 1998); its curvature ``kappa_g(phi) / rho`` grows toward the
@@ -65,12 +66,44 @@ def sector_turn_rad(tilt, amplitude):
     return np.sum(rate * _WEIGHTS, axis=-1) * SECTOR_RAD / 2.0
 
 
-def cone_amplitude_rad(tilt_rad, iterations=60):
-    """Elevation amplitude ``A`` that closes the cone for spoke tilts (N,) [rad]."""
-    tilt = np.asarray(tilt_rad, dtype=np.float64)
-    low, high = np.zeros_like(tilt), np.full_like(tilt, MAX_AMPLITUDE_RAD)
-    if np.any(sector_turn_rad(tilt, high) > SECTOR_RAD):
+def _turn_and_slope(tilt, amplitude):
+    """Sector turn [rad] and its derivative in the amplitude, for tilts and amplitudes (N,)."""
+    phi = (_NODES + 1.0) * SECTOR_RAD / 2.0
+    tilt, amplitude = tilt[:, None], amplitude[:, None]
+    elevation = _elevation(tilt, amplitude, phi)
+    weight = (1.0 - np.cos(3.0 * phi)) / 2.0
+    wobble = 1.5 * np.sin(3.0 * phi)
+    root = np.sqrt(np.clip(1.0 - (amplitude * wobble) ** 2, 1e-300, None))
+    rate = root / np.cos(elevation)
+    slope = (-amplitude * wobble ** 2 / root + root * np.tan(elevation) * weight) \
+        / np.cos(elevation)
+    scale = SECTOR_RAD / 2.0
+    return np.sum(rate * _WEIGHTS, -1) * scale, np.sum(slope * _WEIGHTS, -1) * scale
+
+
+def cone_amplitude_rad(tilt_rad):
+    """Elevation amplitude ``A`` that closes the cone for spoke tilts (N,) [rad].
+
+    Newton's method from ``A = 2 beta / 3`` (the turn falls smoothly and strictly with ``A``);
+    bisection takes over for any tilt where Newton does not settle to rounding.
+    """
+    tilt = np.atleast_1d(np.asarray(tilt_rad, dtype=np.float64))
+    if np.any(sector_turn_rad(tilt, np.full_like(tilt, MAX_AMPLITUDE_RAD)) > SECTOR_RAD):
         raise ValueError('the spokes tilt too far for a developable cone to close')
+    amplitude = 2.0 * tilt / 3.0
+    for _ in range(8):
+        turn, slope = _turn_and_slope(tilt, amplitude)
+        step = np.where(slope != 0.0, (turn - SECTOR_RAD) / np.where(slope != 0.0, slope, 1.0),
+                        0.0)
+        amplitude = np.clip(amplitude - step, 0.0, MAX_AMPLITUDE_RAD)
+    unsettled = ~(np.abs(_turn_and_slope(tilt, amplitude)[0] - SECTOR_RAD) <= 1e-13)
+    if np.any(unsettled):
+        amplitude[unsettled] = _bisected_amplitude(tilt[unsettled])
+    return amplitude.reshape(np.shape(tilt_rad))
+
+
+def _bisected_amplitude(tilt, iterations=60):
+    low, high = np.zeros_like(tilt), np.full_like(tilt, MAX_AMPLITUDE_RAD)
     for _ in range(iterations):
         middle = (low + high) / 2.0
         too_long = sector_turn_rad(tilt, middle) > SECTOR_RAD
