@@ -40,9 +40,9 @@ from scipy.special import ellipe, ellipk
 
 from flectofold_model.actuation import ATMOSPHERIC_PRESSURE_PA
 from flectofold_model.kinematics import elastica
-from flectofold_model.kinematics.closure import FoldModel
+from flectofold_model.kinematics.hexagon import hexagon_mesh, HexagonBatch, HexagonTopology
+from flectofold_model.kinematics.kinds import fold_model_of, panel_kind
 from flectofold_model.kinematics.mesh import DEFAULT_TOPOLOGY, fold_mesh, MeshTopology
-from flectofold_model.kinematics.panel import PanelBatch
 from flectofold_model.kinematics.reflection import sag_for_apex_fold_angle
 from flectofold_ros import contract, panel_states
 
@@ -99,8 +99,19 @@ def k_from_sag(sag_m, length_m):
     return k
 
 
-def facade_topology(panel_count, vertex_budget=FACADE_VERTEX_BUDGET):
-    """Return the mesh topology for a facade of ``panel_count`` panels.
+def _outline(batch):
+    """Corners (N, C, 3) of each flat panel's outline in its frame, counter-clockwise."""
+    if isinstance(batch, HexagonBatch):
+        angle = np.radians(30.0 + 60.0 * np.arange(6))
+        unit = np.stack([np.cos(angle), np.sin(angle), np.zeros(6)], axis=-1)
+        return batch.circumradius_m[:, None, None] * unit
+    half = np.stack([batch.length_m / 2, batch.width_m / 2, np.zeros(len(batch))], -1)
+    signs = np.array([(-1, -1, 0), (1, -1, 0), (1, 1, 0), (-1, 1, 0)], dtype=float)
+    return half[:, None, :] * signs
+
+
+def facade_topology(panel_count, vertex_budget=FACADE_VERTEX_BUDGET, kind='quad'):
+    """Return the mesh topology for a facade of ``panel_count`` panels of ``kind``.
 
     Every row of a mesh block is a straight segment (a generator of the mid-rib cylinder or its
     mirror image) with one normal, so two columns per block give the same surface and shading
@@ -110,7 +121,16 @@ def facade_topology(panel_count, vertex_budget=FACADE_VERTEX_BUDGET):
     vertices, but at least 3. The demonstrator's 36 panels get 21 stations (126 vertices a
     panel, the default mesh's shape); 1,000 panels get 9 (54 vertices, within 4 mm of the
     fine mesh on a 1 m panel).
+
+    A hexagonal panel's rulings are straight too, on the cone and on each flap, so one ring
+    and two flap columns give the surface; this takes the most rulings per sector (even, at
+    most 12, at least 2) within the budget: 115 vertices a panel for 36 panels, 43 for 1,000.
     """
+    if kind == 'hexagon':
+        rulings = 12
+        while rulings > 2 and panel_count * (9 * rulings + 7) > vertex_budget:
+            rulings -= 2
+        return HexagonTopology(rulings_per_sector=rulings, rings=1, flap_columns=2)
     stations = DEFAULT_TOPOLOGY.stations
     while stations > 3 and panel_count * 6 * stations > vertex_budget:
         stations -= 2
@@ -227,10 +247,11 @@ class FacadeScene:
         self.color_by, self.min_change_rad = color_by, float(min_change_rad)
         self.every_state = every_state
         count = len(facade)
-        self.topology = topology or facade_topology(count)
+        self.model = fold_model_of(facade.panels)
+        self.kind = panel_kind(self.model.batch)
+        self.topology = topology or facade_topology(count, kind=self.kind)
         self.panel_ids = list(facade.panel_ids)
         self._lookup = panel_states.index_lookup(self.panel_ids)
-        self.model = FoldModel(PanelBatch.from_panels(facade.panels))
         self.positions_enu = facade.origin_m @ facade.facade_to_enu.T
         """(N, 3) panel origins in the site ENU frame [m]."""
         self._rotation_t = np.ascontiguousarray(
@@ -238,7 +259,12 @@ class FacadeScene:
         self._origin = self.positions_enu.astype(np.float32)[:, None, :]
         self.angle_limits_rad = (self.model.open_fold_angle_rad,
                                  self.model.closed_fold_angle_rad)
-        self._sag_limit_m = elastica.sag_from_k(elastica.K_MAX, self.model.batch.length_m)
+        self._shape_for = (self._hexagon_shapes if self.kind == 'hexagon'
+                           else self._quad_shapes)
+        if self.kind == 'hexagon':
+            self._rise_table_m = self.model.shape_table()
+        else:
+            self._sag_limit_m = elastica.sag_from_k(elastica.K_MAX, self.model.batch.length_m)
         # The panel state as the scene last applied it.
         self.seen = np.zeros(count, dtype=bool)
         self.stamp_ns = np.zeros(count, dtype=np.int64)
@@ -250,7 +276,7 @@ class FacadeScene:
         self._touched = np.zeros(count, dtype=bool)
         # What the recording shows: every panel meshed, at the open state until it is seen.
         self.logged_angle_rad = np.full(count, np.nan)
-        self.vertices, self.normals = self._world_mesh(np.arange(count), self.model.open_k)
+        self.vertices, self.normals = self._world_mesh(np.arange(count), self.model.open_shape)
         self.logged_colour = np.zeros(count, dtype=np.uint32)
         self._positions_logged = False
         self._colours_logged = False
@@ -292,17 +318,19 @@ class FacadeScene:
                                    albedo_factor=_SURFACE_RGBA), static=True)
 
     def surface_facets(self, depth_m=0.05):
-        """One quad per patch, ``depth_m`` behind the panels: (4N, 3) vertices, (2N, 3) faces."""
-        batch = self.model.batch
-        half_x, half_y = batch.length_m / 2, batch.width_m / 2
-        corners = np.stack([np.stack([sx * half_x, sy * half_y, np.full_like(half_x, -depth_m)],
-                                     axis=-1)
-                            for sx, sy in ((-1, -1), (1, -1), (1, 1), (-1, 1))], axis=1)
+        """One facet per patch, ``depth_m`` behind the panels: (C N, 3) vertices and faces.
+
+        A quad panel's patch is its rectangle (C = 4 corners), a hexagonal panel's its hexagon
+        (C = 6), each a fan of C - 2 triangles.
+        """
+        corners = _outline(self.model.batch)
+        corners[..., 2] = -depth_m
         world = np.einsum('nij,nkj->nki', self.facade.panel_to_enu, corners) \
             + self.positions_enu[:, None, :]
-        base = 4 * np.arange(len(batch))[:, None]
-        triangles = np.concatenate([base + [0, 1, 2], base + [0, 2, 3]]).astype(np.uint32)
-        return world.reshape(-1, 3).astype(np.float32), triangles
+        count, size = corners.shape[:2]
+        fan = np.stack([np.zeros(size - 2, int), np.arange(1, size - 1), np.arange(2, size)], -1)
+        triangles = (size * np.arange(count)[:, None, None] + fan).reshape(-1, 3)
+        return world.reshape(-1, 3).astype(np.float32), triangles.astype(np.uint32)
 
     # -- inputs -----------------------------------------------------------------------------
 
@@ -425,9 +453,7 @@ class FacadeScene:
             angle = np.clip(self.fold_angle_rad[panels], self.angle_limits_rad[0][panels],
                             self.angle_limits_rad[1][panels])
             batch = self._batch(panels)
-            # FoldModel's map from fold angle to elastica modulus, for these panels only.
-            sag = np.minimum(sag_for_apex_fold_angle(batch, angle), self._sag_limit_m[panels])
-            vertices, normals = self._world_mesh(panels, k_from_sag(sag, batch.length_m),
+            vertices, normals = self._world_mesh(panels, self._shape_for(panels, angle, batch),
                                                  batch)
             self.vertices[panels], self.normals[panels] = vertices, normals
             self.logged_angle_rad[panels] = self.fold_angle_rad[panels]
@@ -452,10 +478,26 @@ class FacadeScene:
     def _batch(self, panels):
         return self.model.batch if len(panels) == len(self) else self.model.batch.take(panels)
 
-    def _world_mesh(self, panels, k, batch=None):
-        """(M, V, 3) float32 world vertices and normals of ``panels`` at moduli ``k``."""
+    def _quad_shapes(self, panels, angle, batch):
+        """Return elastica moduli for fold angles (FoldModel's map), for these panels only."""
+        sag = np.minimum(sag_for_apex_fold_angle(batch, angle), self._sag_limit_m[panels])
+        return k_from_sag(sag, batch.length_m)
+
+    def _hexagon_shapes(self, panels, angle, batch):
+        """Centre rises for fold angles, interpolated in the model's table of these panels."""
+        opened, closed = self.angle_limits_rad[0][panels], self.angle_limits_rad[1][panels]
+        table = self._rise_table_m[panels]
+        position = np.clip((angle - opened) / (closed - opened), 0.0, 1.0) * (table.shape[1] - 1)
+        lower = np.minimum(position.astype(np.intp), table.shape[1] - 2)
+        rows = np.arange(len(panels))
+        low, high = table[rows, lower], table[rows, lower + 1]
+        return low + (position - lower) * (high - low)
+
+    def _world_mesh(self, panels, shape, batch=None):
+        """(M, V, 3) float32 world vertices and normals of ``panels`` at shape parameters."""
         batch = self._batch(panels) if batch is None else batch
-        mesh = fold_mesh(batch, k, topology=self.topology, dtype=np.float32)
+        build = hexagon_mesh if isinstance(batch, HexagonBatch) else fold_mesh
+        mesh = build(batch, shape, topology=self.topology, dtype=np.float32)
         rotation_t = self._rotation_t[panels]
         vertices = np.matmul(mesh.vertices, rotation_t)
         vertices += self._origin[panels]

@@ -93,6 +93,20 @@ def _wedge_margin_m(batch, geometry):
     return np.min(np.where(inside, to_plane, -radius), axis=-1)
 
 
+def _rise_for_fold_angle(batch, fold_angle_rad, highest_m):
+    """Centre rises (N,) for apex fold angles, by scipy's bracketing root finder."""
+    goal = np.broadcast_to(np.asarray(fold_angle_rad, dtype=np.float64), (len(batch),))
+
+    def miss(rise, target, index):
+        return SectorGeometry(batch.take(index), rise).apex_fold_angle_rad - target
+
+    result = find_root(miss, (np.zeros(len(batch)), np.array(highest_m, dtype=np.float64)),
+                       args=(goal, np.arange(len(batch))), tolerances=_ROOT_TOLERANCES)
+    if not np.all(result.success):
+        raise ArithmeticError('the centre rise for a fold angle did not converge')
+    return np.clip(result.x, 0.0, highest_m)
+
+
 class HexagonFoldModel:
     """The closure map of a :class:`~.panel.HexagonBatch`, vectorised over panels.
 
@@ -106,6 +120,7 @@ class HexagonFoldModel:
             raise TypeError(f'HexagonFoldModel needs a HexagonBatch, got {type(batch).__name__}')
         self.batch = batch
         first, row = _distinct_rows(batch)
+        self._distinct_first, self._distinct_row = first, row
         source = self if len(first) == len(batch) else HexagonFoldModel(batch.take(first))
         if source is self:
             self._build()
@@ -170,18 +185,8 @@ class HexagonFoldModel:
         return leaning
 
     def _rise_for_fold_angle(self, fold_angle_rad, highest=None):
-        """Centre rise for apex fold angles (N,), by scipy's bracketing root finder."""
         high = self.closed_rise_m if highest is None else highest
-        goal = np.broadcast_to(np.asarray(fold_angle_rad, dtype=np.float64), (len(self),))
-
-        def miss(rise, target, index):
-            return SectorGeometry(self.batch.take(index), rise).apex_fold_angle_rad - target
-
-        result = find_root(miss, (np.zeros(len(self)), high.copy()),
-                           args=(goal, np.arange(len(self))), tolerances=_ROOT_TOLERANCES)
-        if not np.all(result.success):
-            raise ArithmeticError('the centre rise for a fold angle did not converge')
-        return np.clip(result.x, 0.0, high)
+        return _rise_for_fold_angle(self.batch, fold_angle_rad, high)
 
     def _check_monotone(self):
         fractions = np.linspace(0.0, 1.0, _MONOTONE_CHECK_STATES)
@@ -242,6 +247,22 @@ class HexagonFoldModel:
         return self._state(np.clip(rise, self.open_rise_m, self.closed_rise_m))
 
     state_from_shape = state_from_rise
+
+    def shape_table(self, samples=257):
+        """Centre rises (N, S) [m] at ``samples`` closures evenly spaced over [0, 1].
+
+        Computed in one root-finding pass over the distinct panels, so a caller that needs
+        the map many times a second (a viewer) can interpolate in it instead.
+        """
+        if isinstance(samples, bool) or not isinstance(samples, int) or samples < 2:
+            raise ValueError(f'samples must be an integer of at least 2, got {samples!r}')
+        closures = np.linspace(0.0, 1.0, samples)
+        first = self._distinct_first
+        rows = np.repeat(first, samples)
+        opened, closed = self.open_fold_angle_rad[rows], self.closed_fold_angle_rad[rows]
+        goal = opened + np.tile(closures, first.size) * (closed - opened)
+        rises = _rise_for_fold_angle(self.batch.take(rows), goal, self.closed_rise_m[rows])
+        return rises.reshape(first.size, samples)[self._distinct_row]
 
     def _state(self, rise):
         geometry = SectorGeometry(self.batch, rise)

@@ -150,3 +150,14 @@ def test_rise_outside_the_stroke_is_refused(model):
         model.state_from_rise(0.0)
     with pytest.raises(TypeError, match='needs a HexagonBatch'):
         HexagonFoldModel([HEXAGON_MODULE])
+
+
+def test_shape_table_agrees_with_the_exact_map(model):
+    table = model.shape_table(samples=129)
+    closures = np.linspace(0.0, 1.0, 129)
+    for index in (0, 64, 128):
+        exact = model.state_from_closure(closures[index]).centre_rise_m
+        np.testing.assert_allclose(table[:, index], exact, rtol=1e-12)
+    assert np.all(np.diff(table, axis=1) > 0)
+    with pytest.raises(ValueError, match='at least 2'):
+        model.shape_table(samples=1)
