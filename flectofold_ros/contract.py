@@ -146,9 +146,13 @@ def reset_faults_service(panel_id):
     return panel_topic_name(panel_id, RESET_FAULTS_SERVICE)
 
 
-def flap_joint_names(panel_id):
-    """``joint_states`` names of a panel's two flaps."""
-    return [f'{panel_id}_flap_left', f'{panel_id}_flap_right']
+#: Flaps of each panel kind, in the order of their ``joint_states`` names.
+FLAPS = {'quad': ('left', 'right'), 'hexagon': ('0', '1', '2')}
+
+
+def flap_joint_names(panel_id, kind='quad'):
+    """``joint_states`` names of a panel's flaps: two for a quad, three for a hexagon."""
+    return [f'{panel_id}_flap_{flap}' for flap in FLAPS[kind]]
 
 
 # -- words on the topics ----------------------------------------------------------------------

@@ -34,6 +34,7 @@ from flectofold_model.control import (compile_kernels, ControllerParameters, fac
 from flectofold_model.control.hardware import SimulatedCushions
 from flectofold_model.control.panel_loops import LoopSample, panel_indices
 from flectofold_model.facade import DEFAULT_FACADE, load_facade
+from flectofold_model.kinematics.kinds import panel_kind
 from flectofold_ros import contract, diagnostics, panel_states
 from flectofold_ros.fault_injection import FaultInjector, FaultRequestError, parse_request
 from flectofold_ros.interfaces import publisher, service, subscription
@@ -139,7 +140,8 @@ class PanelNode(Node):
         self._pressure_message = FluidPressure(
             variance=process.loops.driver.circuit.sensor_noise_pa ** 2)
         self._pressure_message.header.frame_id = panel
-        self._joints_message = JointState(name=contract.flap_joint_names(panel))
+        self._joints_message = JointState(name=contract.flap_joint_names(panel, process.kind))
+        self._flap_count = len(self._joints_message.name)
         self._closure_message = Float64()
 
     def _on_setpoint(self, message):
@@ -156,7 +158,7 @@ class PanelNode(Node):
             pressure.fluid_pressure, pressure.header.stamp = measured_pa, stamp
             self._pressure.publish(pressure)
         joints = self._joints_message
-        joints.header.stamp, joints.position = stamp, [fold_angle_rad, fold_angle_rad]
+        joints.header.stamp, joints.position = stamp, [fold_angle_rad] * self._flap_count
         self._joints.publish(joints)
         closure_message = self._closure_message
         closure_message.data = closure
@@ -181,7 +183,7 @@ class PanelProcess:
     process's).
     """
 
-    def __init__(self, settings, panels, loops, positions_enu, facade_ids=None):
+    def __init__(self, settings, panels, loops, positions_enu, facade_ids=None, kind='quad'):
         self.settings, self.panels, self.loops = settings, panels, loops
         value = self._value
         count = len(panels)
@@ -214,9 +216,11 @@ class PanelProcess:
         self._table['row'], self._table['column'] = panel_states.id_numbers(
             [panel.panel_id for panel in panels])
         self._cloud = PointCloud2()
+        self.kind = kind
         self._joint_states = JointState(name=[name for panel in panels
                                               for name in contract.flap_joint_names(
-                                                  panel.panel_id)])
+                                                  panel.panel_id, kind)])
+        self._flaps_per_panel = len(contract.FLAPS[kind])
         self._cloud_publisher = publisher(settings, contract.PANEL_STATES)
         self._joints_publisher = publisher(settings, contract.FACADE_JOINT_STATES)
         self._diagnostics = publisher(settings, contract.DIAGNOSTICS)
@@ -413,7 +417,8 @@ class PanelProcess:
                                                                 PointField))
         joints = self._joint_states
         joints.header.stamp = stamp
-        joints.position = array.array('d', np.repeat(sample.fold_angle_rad, 2).tobytes())
+        joints.position = array.array('d', np.repeat(sample.fold_angle_rad,
+                                                     self._flaps_per_panel).tobytes())
         self._joints_publisher.publish(joints)
         self.states_published += 1
 
@@ -505,7 +510,8 @@ def _stamp(time_s):
 def build_loops(node, panel_ids, seed=0):
     """Build the shared loops from ``node``'s settings.
 
-    Return them, the panels' origins in the site's frame (N, 3) [m] and the facade's ids.
+    Return them, the panels' origins in the site's frame (N, 3) [m], the facade's ids and its
+    panel kind.
     """
     settings = {name: node.get_parameter(name).value for name in LOOP_SETTINGS}
     if settings['hardware'] != 'simulated':  # declare_all refused it: no other driver exists
@@ -521,7 +527,7 @@ def build_loops(node, panel_ids, seed=0):
                          max_call_s=MAX_CALL_S)
     compile_kernels()  # here, before the panels report ready, not in their first tick
     origins = facade.origin_m[panel_indices(facade, panel_ids)] @ facade.facade_to_enu.T
-    return loops, origins, facade.panel_ids
+    return loops, origins, facade.panel_ids, panel_kind(facade.panels[0])
 
 
 class PanelProgram(Program):
@@ -565,8 +571,8 @@ def start_panels(panel_ids=None, group_name=None, seed=0, teardown=True, **node_
         ids = [panel.panel_id for panel in panels]
         if len(set(ids)) != len(ids):
             raise ValueError(f'a panel is named twice in {", ".join(ids)}')
-        loops, origins, facade_ids = build_loops(settings, ids, seed=seed)
-        process = PanelProcess(settings, panels, loops, origins, facade_ids)
+        loops, origins, facade_ids, kind = build_loops(settings, ids, seed=seed)
+        process = PanelProcess(settings, panels, loops, origins, facade_ids, kind)
     except BaseException:
         for node in nodes:
             node.destroy_node()
