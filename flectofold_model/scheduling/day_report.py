@@ -29,8 +29,7 @@ import math
 import numpy as np
 
 from flectofold_model.environment import sun
-from flectofold_model.kinematics.closure import FoldModel
-from flectofold_model.kinematics.panel import PanelBatch
+from flectofold_model.kinematics.kinds import fold_model_of
 from flectofold_model.scheduling.facade_schedule import full_close_air_nl, scheduler_parameters
 from flectofold_model.scheduling.scheduler import Scheduler
 from flectofold_model.shading.ray_casting import blocked_fraction, choose_candidate, view_fraction
@@ -93,14 +92,16 @@ class DayReport:
 def simulate_day(facade, date_iso, step_s=300.0, samples=16):
     """Run ``facade`` through the local day ``date_iso`` ('YYYY-MM-DD'); see the module doc.
 
-    ``samples`` is the ray grid per side of each footprint (see :mod:`.shading`).
+    The facade's panels are all quad panels or all hexagonal ones; each is cast against its
+    own kind's mesh. ``samples`` is the ray grid per side of each footprint (see
+    :mod:`.shading`).
     """
     epochs = sun.day_epochs(date_iso, facade.utc_offset_h, step_s)
     position = sun.solar_position(epochs, facade.site)
     dni = _clear_sky_dni(epochs, facade.site)
     sun_panel = facade.sun_in_panel_frames(position.enu)
     sunlit = (sun_panel[..., 2] > 0) & position.above_horizon[:, None]
-    fold = FoldModel(PanelBatch.from_panels(facade.panels))
+    fold = fold_model_of(facade.panels)
     blocked = _blocked_table(fold, sun_panel, sunlit, samples)
     view = _view_table(fold, samples)
     target = facade.control.get('shading_target', 0.9)
@@ -141,20 +142,21 @@ def _clear_sky_dni(epochs, site):
 
 def _blocked_table(fold, sun_panel, sunlit, samples):
     """(T, N, C) blocked fraction at every candidate closure, computed only where sunlit."""
-    states = [fold.state_from_closure(c).elastica_k for c in CANDIDATE_CLOSURES]
+    states = [fold.state_from_closure(c).shape_parameter for c in CANDIDATE_CLOSURES]
     table = np.zeros(sun_panel.shape[:2] + (CANDIDATE_CLOSURES.size,))
     times, panels = np.nonzero(sunlit)
     if times.size == 0:
         return table
-    for index, k in enumerate(states):
-        batch = fold.batch.take(panels)
-        shading = blocked_fraction(batch, k[panels], sun_panel[times, panels], samples=samples)
+    batch = fold.batch.take(panels)
+    for index, shape in enumerate(states):
+        shading = blocked_fraction(batch, shape[panels], sun_panel[times, panels],
+                                   samples=samples)
         table[times, panels, index] = shading.blocked_fraction
     return table
 
 
 def _view_table(fold, samples):
-    return np.stack([view_fraction(fold.batch, fold.state_from_closure(c).elastica_k,
+    return np.stack([view_fraction(fold.batch, fold.state_from_closure(c).shape_parameter,
                                    samples=samples)
                      for c in CANDIDATE_CLOSURES], axis=-1)
 

@@ -6,8 +6,13 @@ period. A :class:`ShadingTable` casts once, for one panel geometry, over a grid 
 directions and candidate closures, and then answers by bilinear interpolation, vectorised over
 any number of panels that share the geometry.
 
+The panel is a quad panel (:class:`~flectofold_model.kinematics.panel.PanelGeometry`) or a
+hexagonal one (:class:`~flectofold_model.kinematics.hexagon.HexagonPanel`); each is cast with
+its kind's mesh and tiling (:mod:`.ray_casting`).
+
 Sun directions are tabulated by their two profile angles in the panel frame,
-``alpha = atan2(s_x, s_z)`` (along the mid-rib) and ``beta = atan2(s_y, s_z)`` (across it),
+``alpha = atan2(s_x, s_z)`` (along x: the mid-rib of a quad panel) and
+``beta = atan2(s_y, s_z)`` (along y),
 each in ``[-max_profile_deg, max_profile_deg]``; a sun beyond the grid is clamped to its edge,
 and one behind the facade (``s_z <= 0``) blocks nothing and is not sunlit. The accuracy of the
 interpolation against direct ray casting is measured in the tests and printed by
@@ -16,19 +21,25 @@ interpolation against direct ray casting is measured in the tests and printed by
 
 import numpy as np
 
-from flectofold_model.kinematics.closure import FoldModel
-from flectofold_model.kinematics.panel import PanelBatch, PanelGeometry
+from flectofold_model.kinematics.hexagon import HexagonPanel
+from flectofold_model.kinematics.kinds import batch_of, fold_model_of
+from flectofold_model.kinematics.panel import PanelGeometry
 from flectofold_model.shading.ray_casting import (blocked_fraction, choose_candidate,
                                                   SUNLIT_MIN_SZ, view_fraction)
 
 
 class ShadingTable:
-    """Blocked fractions of one panel geometry over sun directions and candidate closures."""
+    """Blocked fractions of one panel geometry over sun directions and candidate closures.
+
+    ``panel`` is a :class:`PanelGeometry` or a :class:`HexagonPanel`; ``samples`` is the ray
+    grid of :func:`.ray_casting.blocked_fraction`.
+    """
 
     def __init__(self, panel, closures=np.linspace(0.0, 1.0, 11), step_deg=5.0,
                  max_profile_deg=85.0, samples=16):
-        if not isinstance(panel, PanelGeometry):
-            raise TypeError(f'panel must be a PanelGeometry, got {type(panel).__name__}')
+        if not isinstance(panel, (PanelGeometry, HexagonPanel)):
+            raise TypeError(f'panel must be a PanelGeometry or a HexagonPanel, got '
+                            f'{type(panel).__name__}')
         closures = np.asarray(closures, dtype=float)
         if closures.ndim != 1 or closures.size < 2 or np.any(np.diff(closures) <= 0):
             raise ValueError('closures must be an increasing 1-D array of at least 2 values')
@@ -39,18 +50,20 @@ class ShadingTable:
         self.closures = closures
         count = int(round(2 * max_profile_deg / step_deg)) + 1
         self.profile_rad = np.radians(np.linspace(-max_profile_deg, max_profile_deg, count))
-        fold = FoldModel(PanelBatch.from_panels([panel]))
-        k = np.array([fold.state_from_closure(c).elastica_k[0] for c in closures])
+        one = batch_of([panel])
+        fold = fold_model_of(one)
+        shape = np.array([fold.state_from_closure(c).shape_parameter[0] for c in closures])
         alpha, beta = np.meshgrid(self.profile_rad, self.profile_rad, indexing='ij')
         sun = np.stack([np.tan(alpha), np.tan(beta), np.ones_like(alpha)], axis=-1)
         sun = (sun / np.linalg.norm(sun, axis=-1, keepdims=True)).reshape(-1, 3)
-        cases = PanelBatch.repeat(panel, closures.size * sun.shape[0])
-        states = np.repeat(k, sun.shape[0])
+        cases = one.take(np.zeros(closures.size * sun.shape[0], dtype=np.intp))
+        states = np.repeat(shape, sun.shape[0])
         suns = np.tile(sun, (closures.size, 1))
         blocked = blocked_fraction(cases, states, suns, samples=samples).blocked_fraction
         self.blocked = blocked.reshape(closures.size, count, count)
         """(C, A, B) blocked fraction per closure and profile angles."""
-        self.view = view_fraction(PanelBatch.repeat(panel, closures.size), k, samples=samples)
+        self.view = view_fraction(one.take(np.zeros(closures.size, dtype=np.intp)), shape,
+                                  samples=samples)
         """(C,) view fraction per closure."""
 
     def blocked_fractions(self, sun_panel):

@@ -1,0 +1,107 @@
+"""The aperture of a hexagonal panel and the tiling of the facade by its copies, for ray casting.
+
+Geometry (the panel frame of :mod:`~flectofold_model.kinematics.hexagon.panel`): the flat
+panel is the regular hexagon of circumradius ``R`` around the origin with corners at the
+azimuths ``30 + 60 j`` degrees, so two of its sides are parallel to y at ``x = +-sqrt(3) R / 2``.
+Its bounding box is ``sqrt(3) R`` along x by ``2 R`` along y.
+
+**Samples.** The hexagon is cut into its six equilateral triangles (centre, corner ``j``,
+corner ``j + 1``) and each of them into ``n**2`` congruent triangles by ``n`` equal steps
+along its sides; the ray origins are the centroids of those ``6 n**2`` triangles. Every sample
+stands for the same area and together they cover the hexagon exactly, so a share of samples
+is a share of the hexagon's area (not of its bounding box); no sample lies on the outline.
+
+**Tiling.** Identical hexagonal panels in one orientation tile the facade edge to edge on the
+lattice ``i b1 + j b2`` with ``b1 = (sqrt(3) R, 0)`` and ``b2 = (sqrt(3) R / 2, 3 R / 2)``: the
+neighbours across the six sides, ``sqrt(3) R`` away.
+"""
+
+import math
+
+import numpy as np
+
+#: Unit normals (3, 2) of the hexagon's three pairs of opposite sides (azimuths 0, 60 and
+#: 120 degrees); the hexagon is ``|n . p| <= sqrt(3) R / 2`` for all three.
+SIDE_NORMALS = np.array([[math.cos(a), math.sin(a)] for a in np.radians([0.0, 60.0, 120.0])])
+#: Slack on the reach of a lattice cell (relative): a cell exactly at the reach is crossed.
+_REACH_SLACK = 1e-9
+
+
+def triangles_per_side(samples):
+    """Return the steps ``n`` per side of each of the six triangles for ``samples``.
+
+    ``n = max(1, round(samples / sqrt(6)))`` gives ``6 n**2`` rays, about the ``samples**2``
+    of a quad panel's footprint (24 -> 600 rays, 16 -> 294, 12 -> 150).
+    """
+    return max(1, int(round(samples / math.sqrt(6.0))))
+
+
+def sample_grid(samples):
+    """(S, 3) rows ``(x / (sqrt(3) R), y / (2 R), 1)`` of the ray origins in the hexagon.
+
+    The coordinates are in units of the bounding box, so one grid serves panels of any size;
+    ``S = 6 n**2`` with ``n`` from :func:`triangles_per_side`.
+    """
+    n = triangles_per_side(samples)
+    i, j = np.meshgrid(np.arange(n), np.arange(n), indexing='ij')
+    up = (i + j <= n - 1)
+    down = (i + j <= n - 2)
+    a = np.concatenate([(i[up] + 1 / 3) / n, (i[down] + 2 / 3) / n])
+    b = np.concatenate([(j[up] + 1 / 3) / n, (j[down] + 2 / 3) / n])
+    corners = np.radians(30.0 + 60.0 * np.arange(7))
+    corner = np.stack([np.cos(corners), np.sin(corners)], axis=-1)
+    points = (a[None, :, None] * corner[:-1, None, :]
+              + b[None, :, None] * corner[1:, None, :]).reshape(-1, 2)
+    scaled = points / np.array([math.sqrt(3.0), 2.0])
+    return np.column_stack([scaled, np.ones(len(scaled))])
+
+
+def bounding_box_m(circumradius_m):
+    """(N, 2) size of each hexagon's bounding box, ``(sqrt(3) R, 2 R)`` [m]."""
+    radius = np.asarray(circumradius_m, dtype=float)
+    return np.stack([math.sqrt(3.0) * radius, 2.0 * radius], axis=-1)
+
+
+def lattice_basis(circumradius_m):
+    """(N, 2, 2) tiling lattice of each panel, the columns ``b1`` and ``b2`` [m]."""
+    radius = np.asarray(circumradius_m, dtype=float)
+    basis = np.empty(radius.shape + (2, 2))
+    basis[..., 0, 0] = math.sqrt(3.0) * radius
+    basis[..., 1, 0] = 0.0
+    basis[..., 0, 1] = math.sqrt(3.0) / 2 * radius
+    basis[..., 1, 1] = 1.5 * radius
+    return basis
+
+
+def cells_crossed(start_m, span_m, basis, reach_m):
+    """Lattice cells that the rays of each panel can meet, with the panel each belongs to.
+
+    The rays of panel n start within ``reach_m`` of the point ``start_m[n]`` (its footprint's
+    rays, moved by their run to the meshes' lowest height) and run by ``tau span_m[n]``,
+    ``0 <= tau <= 1``, across the meshes' height range [m]. A copy of the mesh at lattice
+    point ``c = basis @ (i, j)`` can be met only if ``c`` lies within ``reach_m`` (the
+    footprint's radius plus the mesh's) of that segment. Returns the panel index (K,) and the
+    integer lattice coordinates (K, 2) (as floats) of every such (panel, cell) pair.
+    """
+    inverse = np.linalg.inv(basis)
+    first = np.einsum('nij,nj->ni', inverse, start_m)
+    last = np.einsum('nij,nj->ni', inverse, start_m + span_m)
+    reach = reach_m * (1.0 + _REACH_SLACK)
+    # A disc of radius r spans r |row i of the inverse| in lattice coordinate i.
+    extent = reach[:, None] * np.linalg.norm(inverse, axis=-1)
+    low = np.ceil(np.minimum(first, last) - extent).astype(np.int64)
+    high = np.floor(np.maximum(first, last) + extent).astype(np.int64)
+    size = high - low + 1
+    counts = size[:, 0] * size[:, 1]
+    panel = np.repeat(np.arange(start_m.shape[0]), counts)
+    local = np.arange(counts.sum()) - np.repeat(np.cumsum(counts) - counts, counts)
+    cells = low[panel] + np.stack([local // size[panel, 1], local % size[panel, 1]], axis=-1)
+    point = np.einsum('kij,kj->ki', basis[panel], cells) - start_m[panel]
+    direction = span_m[panel]
+    length2 = np.einsum('ki,ki->k', direction, direction)
+    along = np.einsum('ki,ki->k', point, direction)
+    tau = np.clip(np.divide(along, length2, out=np.zeros_like(along), where=length2 > 0.0),
+                  0.0, 1.0)
+    distance = np.linalg.norm(point - tau[:, None] * direction, axis=-1)
+    near = distance <= reach[panel]
+    return panel[near], cells[near].astype(np.float64)
