@@ -16,6 +16,12 @@ gives with one hand and takes with the other. Where the surface gives too little
 adjustment is applied: choose the mid-rib direction that is more convex (``midrib_along: auto``)
 and mould the missing pre-fold into the panel, up to ``max_moulded_prefold_rad``. Patches that
 would still fold the wrong way are reported and left out of the array.
+
+Panel kinds. ``panel.type`` is ``quad`` (the default, everything above) or ``hexagon``: the
+surface is then tessellated into regular hexagonal cells on a hexagonal lattice and each
+cell carries a :class:`~flectofold_model.kinematics.hexagon.panel.HexagonPanel`
+(:mod:`.hexagon_description`; the pre-fold rule is in :mod:`.hexagon_prefold`). A facade is
+all one kind: ``Facade.panel_kind`` says which.
 """
 
 from dataclasses import dataclass, field, fields
@@ -31,7 +37,9 @@ from flectofold_model.facade import surfaces
 from flectofold_model.kinematics.panel import fold_line_sag, PanelGeometry
 from flectofold_model.safe_yaml import load_yaml, read_yaml, short_repr, YAMLInputError
 
-DEFAULT_FACADE = Path(__file__).with_name('data') / 'demonstrator_6x6.yaml'
+#: The embedded facade descriptions, each loadable by its file's stem (``hexagon_6x6``).
+DATA_DIRECTORY = Path(__file__).with_name('data')
+DEFAULT_FACADE = DATA_DIRECTORY / 'demonstrator_6x6.yaml'
 
 
 class FacadeError(ValueError):
@@ -47,12 +55,21 @@ _SCHEMA = {
                 'semi_axis_u_m': float, 'semi_axis_v_m': float, 'depth_m': float,
                 'curvature_u_per_m': float, 'curvature_v_per_m': float, 'path': str},
     'grid': {'rows': int, 'columns': int, 'gap_m': float, 'midrib_along': str},
-    'panel': {'fold_radius_m': float, 'midrib_end_width_m': float, 'hinge_width_m': float,
-              'min_prefold_rad': float, 'max_moulded_prefold_rad': float,
-              'closed_clearance_m': float},
+    'panel': {'type': str, 'fold_radius_m': float, 'midrib_end_width_m': float,
+              'hinge_width_m': float, 'min_prefold_rad': float,
+              'max_moulded_prefold_rad': float, 'closed_clearance_m': float,
+              'circumradius_m': float, 'fold_line_sag_m': float},
     'overrides': dict,
     'control': dict,
 }
+#: The panel keys of each panel kind (``panel.type``); a facade is all one kind.
+_PANEL_KEYS = {
+    'quad': ('fold_radius_m', 'midrib_end_width_m', 'hinge_width_m', 'min_prefold_rad',
+             'max_moulded_prefold_rad', 'closed_clearance_m'),
+    'hexagon': ('circumradius_m', 'fold_line_sag_m', 'hinge_width_m', 'min_prefold_rad',
+                'max_moulded_prefold_rad', 'closed_clearance_m'),
+}
+_QUAD_PANEL = {key: _SCHEMA['panel'][key] for key in _PANEL_KEYS['quad']}
 _SURFACE_KEYS = {'plane': (), 'cylinder': ('radius_m',),
                  'dome': ('semi_axis_u_m', 'semi_axis_v_m', 'depth_m'),
                  'saddle': ('curvature_u_per_m', 'curvature_v_per_m'), 'obj': ('path',)}
@@ -87,6 +104,9 @@ class Facade:
     excluded: list
     """``(panel id, reason)`` of patches that cannot be made to fold the right way."""
     control: dict = field(default_factory=dict)
+    panel_kind: str = 'quad'
+    """``'quad'`` (:class:`~flectofold_model.kinematics.panel.PanelGeometry` panels) or
+    ``'hexagon'`` (:class:`~flectofold_model.kinematics.hexagon.panel.HexagonPanel` panels)."""
 
     def __len__(self):
         return len(self.panels)
@@ -110,25 +130,57 @@ class Facade:
 
     def report(self):
         """Human-readable lines: surface pre-fold, moulded pre-fold and exclusions."""
-        lines = [f'{self.name}: {len(self)} panels built, {len(self.excluded)} left out']
+        lines = [f'{self.name}: {len(self)} {self.panel_kind} panels built, '
+                 f'{len(self.excluded)} left out']
         for index, panel_id in enumerate(self.panel_ids):
             lines.append(
-                f'  {panel_id}: {self.panels[index].length_m:.3f} x '
-                f'{self.panels[index].width_m:.3f} m, K sign {self.gaussian_sign[index]:+d}, '
+                f'  {panel_id}: {_size(self.panels[index])}, '
+                f'K sign {self.gaussian_sign[index]:+d}, '
                 f'surface pre-fold {math.degrees(self.surface_prefold_rad[index]):+.1f} deg, '
                 f'moulded {math.degrees(self.moulded_prefold_rad[index]):.1f} deg')
         lines.extend(f'  {panel_id}: left out: {reason}' for panel_id, reason in self.excluded)
         return lines
 
 
+def _size(panel):
+    """Return a panel's size as the report prints it: length x width, or radius and area."""
+    if hasattr(panel, 'circumradius_m'):
+        return f'hexagon R {panel.circumradius_m:.3f} m ({panel.area_m2:.3f} m2)'
+    return f'{panel.length_m:.3f} x {panel.width_m:.3f} m'
+
+
+def embedded_facades():
+    """Names of the embedded facade descriptions (the stems of ``data/*.yaml``), sorted."""
+    return sorted(path.stem for path in DATA_DIRECTORY.glob('*.yaml'))
+
+
+def facade_path(name_or_path):
+    """Return the file a facade argument names: an existing file, else an embedded one.
+
+    A value that is no existing file but the name of an embedded description
+    (:func:`embedded_facades`, e.g. ``hexagon_6x6``) means that one, wherever the process
+    runs; anything else is returned as a path.
+    """
+    name = str(name_or_path)
+    if name in embedded_facades() and not Path(name).exists():  # a known short name only
+        return DATA_DIRECTORY / f'{name}.yaml'
+    return Path(name_or_path)
+
+
 def load_facade(path=DEFAULT_FACADE):
-    """Read, validate and build a facade description from a YAML file."""
-    path = Path(path)
+    """Read, validate and build a facade description from a YAML file or an embedded name.
+
+    ``path`` is a YAML file, or the name of an embedded description (see
+    :func:`facade_path`).
+    """
+    path = facade_path(path)
     try:
         document = read_yaml(path)
     except OSError as error:
+        embedded = ', '.join(embedded_facades())
         raise FacadeError(f'{path}: cannot read the facade description: '
-                          f'{error.strerror or error}') from None
+                          f'{error.strerror or error} (embedded descriptions: '
+                          f'{embedded})') from None
     except YAMLInputError as error:
         raise FacadeError(str(error)) from None
     return _build_document(document, Path(path).parent)
@@ -148,9 +200,12 @@ def _build_document(document, base_directory):
         raise FacadeError('a facade description is a mapping of sections')
     _check(document, _SCHEMA, '')
     _check_name(document.get('name', 'facade'))
-    for section in ('site', 'facade', 'surface', 'grid', 'panel'):
+    for section in ('site', 'facade', 'surface', 'panel'):
         if section not in document:
             raise FacadeError(f'{section}: missing section')
+    kind = _panel_kind(document['panel'])
+    if kind == 'quad' and 'grid' not in document:
+        raise FacadeError('grid: missing section')
     site_doc = document['site']
     site = _build('site', lambda: Site(latitude_deg=_need(site_doc, 'site', 'latitude_deg'),
                                        longitude_deg=_need(site_doc, 'site', 'longitude_deg'),
@@ -161,10 +216,11 @@ def _build_document(document, base_directory):
     azimuth = _need(document['facade'], 'facade', 'azimuth_deg')
     if not 0 <= azimuth < 360:
         raise FacadeError(f'facade.azimuth_deg: must lie in [0, 360), got {azimuth:g}')
-    patches = _patches(document['surface'], document['grid'], base_directory)
-    control = _control(document.get('control', {}))
-    panels, ids, kept, surface_prefold, moulded, excluded = _panels(
-        patches, document['panel'], document['grid'], document.get('overrides', {}))
+    if kind == 'hexagon':
+        built = _hexagon_facade(document, base_directory)
+    else:
+        built = _quad_facade(document, base_directory)
+    patches, control, (panels, ids, kept, surface_prefold, moulded, excluded) = built
     if not panels:
         raise FacadeError('no patch can carry a panel that folds the right way: '
                           + '; '.join(f'{i}: {r}' for i, r in excluded[:5]))
@@ -173,7 +229,35 @@ def _build_document(document, base_directory):
                   origin_m=patches.origin_m[kept], rotation=patches.rotation[kept],
                   surface_prefold_rad=np.array(surface_prefold),
                   moulded_prefold_rad=np.array(moulded),
-                  gaussian_sign=patches.gaussian_sign[kept], excluded=excluded, control=control)
+                  gaussian_sign=patches.gaussian_sign[kept], excluded=excluded, control=control,
+                  panel_kind=kind)
+
+
+def _panel_kind(template):
+    kind = template.get('type', 'quad')
+    if kind not in _PANEL_KEYS:
+        raise FacadeError(f"panel.type: must be 'quad' or 'hexagon', got {short_repr(kind)}")
+    for key in template:
+        if key != 'type' and key not in _PANEL_KEYS[kind]:
+            other = next(k for k in _PANEL_KEYS if k != kind)
+            raise FacadeError(f'panel.{key}: not used by a {kind} panel (a {other} key; a '
+                              f'facade is all quad or all hexagon panels, set by panel.type)')
+    return kind
+
+
+def _quad_facade(document, base_directory):
+    patches = _patches(document['surface'], document['grid'], base_directory)
+    control = _control(document.get('control', {}))
+    panels = _panels(patches, document['panel'], document['grid'],
+                     document.get('overrides', {}))
+    return patches, control, panels
+
+
+def _hexagon_facade(document, base_directory):
+    from flectofold_model.facade import hexagon_description
+    cells = hexagon_description.cells(document, base_directory)
+    control = _control(document.get('control', {}))
+    return cells, control, hexagon_description.panels(cells, document)
 
 
 def _key(key):
@@ -236,7 +320,8 @@ def _build(where, make):
         raise FacadeError(f'{where}: {reason}') from None
 
 
-def _patches(surface, grid, base_directory):
+def _surface_kind(surface):
+    """Check ``surface.type`` and that every key belongs to it; return the type."""
     kind = _need(surface, 'surface', 'type')
     if kind not in _SURFACE_KEYS:
         raise FacadeError(f'surface.type: must be one of {", ".join(_SURFACE_KEYS)}, '
@@ -245,6 +330,22 @@ def _patches(surface, grid, base_directory):
     for key in surface:
         if key not in allowed:
             raise FacadeError(f'surface.{_key(key)}: not used by a {kind} surface')
+    return kind
+
+
+def _parametric(surface, kind):
+    """Build the parametric surface of a checked ``surface`` section."""
+    width, height = (_need(surface, 'surface', key) for key in ('width_m', 'height_m'))
+    for key, value in (('width_m', width), ('height_m', height)):
+        if value <= 0:
+            raise FacadeError(f'surface.{key}: must be positive, got {value:g} m')
+    arguments = [_need(surface, 'surface', key) for key in _SURFACE_KEYS[kind]]
+    maker = getattr(surfaces, kind)
+    return _build('surface', lambda: maker(width, height, *arguments))
+
+
+def _patches(surface, grid, base_directory):
+    kind = _surface_kind(surface)
     midrib = grid.get('midrib_along', 'v')
     if midrib not in ('u', 'v', 'auto'):
         raise FacadeError(f"grid.midrib_along: must be 'u', 'v' or 'auto', "
@@ -253,13 +354,7 @@ def _patches(surface, grid, base_directory):
         path = base_directory / _need(surface, 'surface', 'path')
         vertices, faces = _build('surface.path', lambda: surfaces.read_obj_quads(path))
         return _build('surface', lambda: surfaces.obj_patches(vertices, faces, midrib))
-    width, height = (_need(surface, 'surface', key) for key in ('width_m', 'height_m'))
-    for key, value in (('width_m', width), ('height_m', height)):
-        if value <= 0:
-            raise FacadeError(f'surface.{key}: must be positive, got {value:g} m')
-    arguments = [_need(surface, 'surface', key) for key in _SURFACE_KEYS[kind]]
-    maker = getattr(surfaces, kind)
-    shape = _build('surface', lambda: maker(width, height, *arguments))
+    shape = _parametric(surface, kind)
     rows, columns = (_need(grid, 'grid', key) for key in ('rows', 'columns'))
     for key, value in (('rows', rows), ('columns', columns)):
         if not 1 <= value <= 1000:
@@ -298,7 +393,8 @@ def _panels(patches, template, grid, overrides):
         if not isinstance(settings, dict):
             raise FacadeError(f'overrides.{panel_id}: must be a mapping, '
                               f'got {short_repr(settings)}')
-        _check(settings, _SCHEMA['panel'], f'overrides.{panel_id}.')
+        _check_mix(settings, f'overrides.{panel_id}')
+        _check(settings, _QUAD_PANEL, f'overrides.{panel_id}.')
     panels, built_ids, kept, surface_prefold, moulded, excluded = [], [], [], [], [], []
     for index, panel_id in enumerate(ids):
         settings = {**_PANEL_DEFAULTS, **template, **overrides.get(panel_id, {})}
@@ -327,6 +423,12 @@ def _panels(patches, template, grid, overrides):
         surface_prefold.append(supplied)
         moulded.append(mould)
     return panels, built_ids, np.array(kept, dtype=int), surface_prefold, moulded, excluded
+
+
+def _check_mix(settings, where):
+    if 'type' in settings:
+        raise FacadeError(f'{where}.type: a facade is all quad or all hexagon panels; set '
+                          f'panel.type once for the whole facade')
 
 
 def _surface_prefold(patches, index, length, width, settings):

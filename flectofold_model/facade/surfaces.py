@@ -166,7 +166,24 @@ def read_obj_quads(path):
     Only ``v`` and ``f`` lines matter; face entries may carry ``/vt/vn`` indices, negative
     indices count from the end. Every face must be a quad.
     """
-    vertices, faces = [], []
+    vertices, faces, _ = read_obj_faces(path, 4)
+    return vertices, faces
+
+
+#: What a face of each corner count makes, for the messages.
+_FACE_NAMES = {4: ('quad', 'only quad faces make panels'),
+               6: ('hexagonal', 'a hexagon facade takes only hexagonal faces (a facade is all '
+                                'quad or all hexagon panels)')}
+
+
+def read_obj_faces(path, corners):
+    """Vertices (M, 3), faces (F, corners) and the faces' line numbers (F,) of an OBJ file.
+
+    As :func:`read_obj_quads`, for faces of ``corners`` corners (4 or 6): every face must have
+    that many.
+    """
+    name, rule = _FACE_NAMES[corners]
+    vertices, faces, lines = [], [], []
     try:
         text = Path(path).read_text()
     except OSError as error:
@@ -183,20 +200,21 @@ def read_obj_quads(path):
             if len(fields) < 4 or not all(math.isfinite(x) for x in vertices[-1]):
                 raise ValueError(f'{path}:{number}: a vertex needs three finite numbers')
         elif fields[0] == 'f':
-            if len(fields) != 5:
-                raise ValueError(f'{path}:{number}: only quad faces make panels, got '
+            if len(fields) != corners + 1:
+                raise ValueError(f'{path}:{number}: face {len(faces) + 1}: {rule}, got '
                                  f'{len(fields) - 1} corners')
             try:
                 indices = [int(entry.split('/')[0]) for entry in fields[1:]]
             except ValueError:
                 raise ValueError(f'{path}:{number}: bad face indices') from None
             faces.append([i - 1 if i > 0 else len(vertices) + i for i in indices])
+            lines.append(number)
     if not faces:
-        raise ValueError(f'{path}: no quad faces found')
+        raise ValueError(f'{path}: no {name} faces found')
     faces = np.array(faces)
     if faces.min() < 0 or faces.max() >= len(vertices):
         raise ValueError(f'{path}: a face refers to a vertex that does not exist')
-    return np.array(vertices), faces
+    return np.array(vertices), faces, np.array(lines)
 
 
 def obj_patches(vertices, faces, midrib_along='v'):
