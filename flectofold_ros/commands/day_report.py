@@ -1,7 +1,8 @@
 """Run a facade through a day and report what its schedule achieved, with a PNG of the day.
 
 ``ros2 run flectofold_ros day_report`` (or ``day_report`` in the venv). Without arguments: the
-embedded 6 x 6 demonstrator on the June solstice.
+embedded 6 x 6 demonstrator on the June solstice; ``--facade hexagon_6x6`` runs its hexagonal
+counterpart (each panel kind is cast against its own meshes).
 """
 
 import argparse
@@ -16,7 +17,9 @@ from flectofold_ros.runner import run_command
 def main(args=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument('--facade', type=Path, default=DEFAULT_FACADE,
-                        help='facade description YAML (default: the 6x6 demonstrator)')
+                        help='facade description YAML or embedded name, quad or hexagonal '
+                             'panels (default: the 6x6 demonstrator; hexagon_6x6: its '
+                             'hexagonal counterpart)')
     parser.add_argument('--date', default='2026-06-21', help='local date, YYYY-MM-DD')
     parser.add_argument('--step', type=float, default=600.0, help='time step [s]')
     parser.add_argument('--out', type=Path, default=Path('out'),
