@@ -112,7 +112,7 @@ def _quads(a, b, c, d):
     return [np.stack([a, b, c], -1).reshape(-1, 3), np.stack([a, c, d], -1).reshape(-1, 3)]
 
 
-#: A resolution for display: 12 rulings per sector, 4 rings, 8 flap columns (433 vertices).
+#: A resolution for display: 12 rulings per sector, 4 rings, 8 flap columns (457 vertices).
 DEFAULT_HEXAGON_TOPOLOGY = HexagonTopology(rulings_per_sector=12, rings=4, flap_columns=8)
 
 
