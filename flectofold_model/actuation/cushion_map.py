@@ -1,17 +1,20 @@
 """The static actuation map as a table, cheap enough for a plant's inner loop.
 
-:class:`CushionMap` samples an :class:`~.statics.ActuationModel` at states evenly spaced in
-closure and interpolates volume, compliance, pressure and closure between them. Panels of the
-same module geometry and build share one table: it is computed once per distinct panel.
+:class:`CushionMap` samples a static actuation model (:class:`~.statics.ActuationModel` of
+quad panels or :class:`~.hexagon_statics.HexagonActuationModel` of hexagonal ones) at states
+evenly spaced in closure and interpolates volume, compliance, pressure and closure between
+them. Panels of the same module geometry and build share one table: it is computed once per
+distinct panel. The tables do not depend on the panel kind: the plant, the loops and the
+compiled kernels see only them.
 """
 
 import numpy as np
 
-from flectofold_model.actuation.statics import ActuationModel, DERIVATIVE_STEP
+from flectofold_model.actuation.static_model import StaticActuationModel
 
 
 class CushionMap:
-    """Tabulated static map of an :class:`ActuationModel`, cheap enough for a plant's inner loop.
+    """Tabulated static map of a static actuation model, cheap enough for a plant's inner loop.
 
     Calling it with gauge pressures (N,) returns the cushion volume [m3] and its compliance
     ``dV/dp`` [m3/Pa] per panel, interpolated between ``samples`` states evenly spaced in closure.
@@ -23,12 +26,13 @@ class CushionMap:
     """
 
     def __init__(self, model, samples=129):
-        if not isinstance(model, ActuationModel):
-            raise TypeError(f'CushionMap needs an ActuationModel, got {type(model).__name__}')
+        if not isinstance(model, StaticActuationModel):
+            raise TypeError(f'CushionMap needs an ActuationModel or a HexagonActuationModel, '
+                            f'got {type(model).__name__}')
         if isinstance(samples, bool) or not isinstance(samples, int) or samples < 3:
             raise ValueError(f'samples must be an integer of at least 3, got {samples!r}')
         distinct, self.row = _distinct_panels(model.panels)
-        source = model if len(distinct) == len(model) else ActuationModel(
+        source = model if len(distinct) == len(model) else type(model)(
             distinct, quadrature_points=model.quadrature_points)
         self.closures = np.linspace(0.0, 1.0, samples)
         self._distinct = _tables(source, self.closures)
@@ -112,18 +116,16 @@ def _distinct_panels(panels):
 
 def _tables(model, closures):
     """Pressure, volume, compliance and apex fold angle (R, S) of ``model`` at ``closures``."""
-    states = [model.fold.state_from_closure(c) for c in closures]
-    k = np.stack([state.elastica_k for state in states], axis=1)
-    fold_angle = np.stack([state.apex_fold_angle_rad for state in states], axis=1)
-    step = DERIVATIVE_STEP
+    shape, fold_angle = model.shape_table(closures)
+    step = model.derivative_step
     index = np.repeat(np.arange(len(model)), closures.size)
-    flat_k = k.ravel()
-    pressure = model._pressure(flat_k, index).reshape(k.shape)
-    volume = model._volume(flat_k, index).reshape(k.shape)
-    pressure_rate = (model._pressure(flat_k + step, index)
-                     - model._pressure(flat_k - step, index)).reshape(k.shape) / (2 * step)
-    volume_rate = (model._volume(flat_k + step, index)
-                   - model._volume(flat_k - step, index)).reshape(k.shape) / (2 * step)
+    flat = shape.ravel()
+    pressure = model._pressure(flat, index).reshape(shape.shape)
+    volume = model._volume(flat, index).reshape(shape.shape)
+    pressure_rate = (model._pressure(flat + step, index)
+                     - model._pressure(flat - step, index)).reshape(shape.shape) / (2 * step)
+    volume_rate = (model._volume(flat + step, index)
+                   - model._volume(flat - step, index)).reshape(shape.shape) / (2 * step)
     if np.any(np.diff(pressure, axis=1) <= 0):
         raise ValueError('the pressure map is not monotone in closure: the panel would snap')
     return pressure, volume, volume_rate / pressure_rate, fold_angle

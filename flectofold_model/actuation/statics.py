@@ -27,14 +27,14 @@ out; the hinge fold is uniform across the hinge width.
 
 from dataclasses import dataclass
 import math
-import warnings
 
 import numpy as np
-from scipy.optimize.elementwise import find_root
 
-from flectofold_model._validate import real_array, real_scalar
+from flectofold_model._validate import real_scalar
 from flectofold_model.actuation.cushion import contact_width_m, section_area_m2, StripCushion
 from flectofold_model.actuation.laminate import Laminate
+from flectofold_model.actuation.static_model import (StaticActuationModel,
+                                                     UnreachableClosureWarning)
 from flectofold_model.kinematics import elastica
 from flectofold_model.kinematics.closure import FoldModel
 from flectofold_model.kinematics.mesh import fold_mesh, MeshTopology
@@ -44,9 +44,9 @@ from flectofold_model.kinematics.reflection import flap_tip
 #: Step in the elastica modulus of the central differences of the static maps.
 DERIVATIVE_STEP = 1e-6
 
-
-class UnreachableClosureWarning(UserWarning):
-    """A requested state needs more pressure than the supply can give."""
+__all__ = ['ActuatedPanel', 'ActuationModel', 'DEMONSTRATOR_ACTUATED', 'DERIVATIVE_STEP',
+           'FLECTOLINE_ACTUATED', 'UnreachableClosureWarning', 'WindResponse', 'actuated_like',
+           'radius_study']
 
 
 @dataclass(frozen=True)
@@ -87,12 +87,17 @@ class WindResponse:
     """``flap_force_n / tip_deflection_m`` [N/m]: larger is stiffer."""
 
 
-class ActuationModel:
+class ActuationModel(StaticActuationModel):
     """The static pressure map of many actuated panels, vectorised over panels.
 
     Internally every quantity is evaluated for a set of panel indices, so that scipy's
-    elementwise root finder can evaluate just the panels it is still working on.
+    elementwise root finder can evaluate just the panels it is still working on. The shape
+    parameter is the elastica modulus ``k``; the maps common to both panel kinds come from
+    :class:`~.static_model.StaticActuationModel`.
     """
+
+    shape_name = 'elastica_k'
+    derivative_step = DERIVATIVE_STEP
 
     def __init__(self, panels, quadrature_points=32):
         panels = list(panels)
@@ -112,13 +117,6 @@ class ActuationModel:
         self.closed_pressure_pa = self.pressure_from_k(self.fold.closed_k)
         self.actuation_energy_j = (self.elastic_energy_j(self.fold.closed_k)
                                    - self.elastic_energy_j(self.fold.open_k))
-
-    def __len__(self):
-        return len(self.panels)
-
-    @property
-    def batch(self):
-        return self.fold.batch
 
     def _set_stiffnesses(self, panels):
         self._midrib_stiffness = np.array([p.midrib.plate_stiffness_nm for p in panels])
@@ -196,16 +194,7 @@ class ActuationModel:
         volume = self._volume(k + step, index) - self._volume(k - step, index)
         return energy / volume
 
-    def _k_array(self, k):
-        return np.broadcast_to(real_array('elastica_k', k), (len(self),))
-
-    def elastic_energy_j(self, k):
-        """Elastic energy stored in each panel at elastica moduli ``k`` [J]."""
-        return self._energy(self._k_array(k), self._all)
-
-    def cushion_volume_m3(self, k):
-        """Cushion volume at elastica moduli ``k`` [m3]."""
-        return self._volume(self._k_array(k), self._all)
+    _k_array = StaticActuationModel._shape_array
 
     def cushion_force_n(self, k, gauge_pressure_pa):
         """Force the cushion puts on the mid-rib at a state and gauge pressure [N]."""
@@ -213,9 +202,7 @@ class ActuationModel:
         contact = np.maximum(contact_width_m(self._cushion_width[:, None], gap), 0.0)
         return gauge_pressure_pa * np.sum(contact * self._cushion_weights, axis=-1)
 
-    def pressure_from_k(self, k):
-        """Gauge pressure [Pa] that holds each panel at elastica modulus ``k``."""
-        return self._pressure(self._k_array(k), self._all)
+    pressure_from_k = StaticActuationModel.pressure_from_shape
 
     def stiffness_at_k(self, k, gauge_pressure_pa):
         """``U'' - p V''`` [J], the stiffness of the one degree of freedom ``k``."""
@@ -228,44 +215,8 @@ class ActuationModel:
 
         return second(self._energy) - gauge_pressure_pa * second(self._volume)
 
-    def pressure_from_closure(self, closure):
-        """Gauge pressure [Pa] that holds each panel at closure in [0, 1]."""
-        return self.pressure_from_k(self.fold.state_from_closure(closure).elastica_k)
-
-    def k_from_pressure(self, gauge_pressure_pa):
-        """Elastica modulus reached at a gauge pressure [Pa], held at the open and closed stops.
-
-        Below zero gauge the panel rests open on its back part; above the closed pressure it
-        rests on its closed stop.
-        """
-        pressure = np.broadcast_to(real_array('gauge_pressure_pa', gauge_pressure_pa),
-                                   (len(self),))
-        target = np.clip(pressure, 0.0, self.closed_pressure_pa)
-        result = find_root(lambda k, goal, index: self._pressure(k, index) - goal,
-                           (self.fold.open_k, self.fold.closed_k), args=(target, self._all),
-                           tolerances={'xatol': 1e-14, 'xrtol': 1e-13})
-        if not np.all(result.success):
-            raise ArithmeticError('pressure inversion did not converge')
-        k = np.clip(result.x, self.fold.open_k, self.fold.closed_k)
-        k = np.where(pressure <= 0.0, self.fold.open_k, k)
-        return np.where(pressure >= self.closed_pressure_pa, self.fold.closed_k, k)
-
-    def closure_from_pressure(self, gauge_pressure_pa):
-        """Closure in [0, 1] reached at a gauge pressure [Pa]."""
-        return self.fold.state_from_k(self.k_from_pressure(gauge_pressure_pa)).closure
-
-    def reachable_closure(self, supply_gauge_pa):
-        """Closure reachable with a supply at ``supply_gauge_pa``; warns if short of closed."""
-        supply = real_scalar('supply_gauge_pa', supply_gauge_pa)
-        reachable = self.closure_from_pressure(supply)
-        short = reachable < 1.0
-        if np.any(short):
-            index = int(np.flatnonzero(short)[0])
-            warnings.warn(
-                f'a {supply / 1e3:.2f} kPa supply reaches closure {reachable[index]:.3f} of '
-                f'panel {index}; closing it needs {self.closed_pressure_pa[index] / 1e3:.2f} kPa',
-                UnreachableClosureWarning, stacklevel=2)
-        return reachable
+    stiffness_at_shape = stiffness_at_k
+    k_from_pressure = StaticActuationModel.shape_from_pressure
 
     def wind_response(self, wind_pressure_pa=1000.0, topology=MeshTopology(21, 5, 11)):
         """Tip travel of the closed flaps under a uniform pressure on their inner faces.

@@ -22,8 +22,9 @@ import time
 import numpy as np
 
 from flectofold_model._validate import in_range, real_array, real_scalar
-from flectofold_model.actuation import (actuated_like, ActuationModel, DEMONSTRATOR_ACTUATED,
-                                        PneumaticPlant)
+from flectofold_model.actuation import (actuated_like, actuation_model_of, ActuationModel,
+                                        DEMONSTRATOR_ACTUATED, PneumaticPlant,
+                                        StaticActuationModel)
 from flectofold_model.actuation.circuit import DEMONSTRATOR_PLANT
 from flectofold_model.actuation.cushion_map import CushionMap
 from flectofold_model.control.decimation import PublishDecimator
@@ -82,8 +83,8 @@ class PanelLoops:
 
     Parameters
     ----------
-    model : ActuationModel
-        The panels' static actuation (one row per driver channel).
+    model : ActuationModel or HexagonActuationModel
+        The panels' static actuation (one row per driver channel), of either panel kind.
     driver : CushionDriver
         Valves and sensors, ``driver.count == len(model)``.
     control_period_s : float
@@ -115,8 +116,9 @@ class PanelLoops:
     def __init__(self, model, driver, control_period_s=0.1, parameters=ControllerParameters(),
                  max_catch_up_s=3600.0, quiet_period_s=None, cushion_map=None,
                  max_call_s=None):
-        if not isinstance(model, ActuationModel):
-            raise TypeError(f'model must be an ActuationModel, got {type(model).__name__}')
+        if not isinstance(model, StaticActuationModel):
+            raise TypeError(f'model must be an ActuationModel or a HexagonActuationModel, got '
+                            f'{type(model).__name__}')
         if not isinstance(driver, CushionDriver):
             raise TypeError(f'driver must be a CushionDriver, got {type(driver).__name__}')
         if driver.count != len(model):
@@ -554,14 +556,14 @@ def facade_loops(facade, panel_ids, control_period_s=0.1, parameters=ControllerP
                  circuit=DEMONSTRATOR_PLANT, seed=0, quiet_period_s=None, max_call_s=None):
     """Build :class:`PanelLoops` for some panels of a facade on one simulated circuit.
 
-    Each panel is actuated like the demonstrator module (see
-    :func:`~flectofold_model.actuation.statics.actuated_like`); ``panel_ids`` must name
-    panels of ``facade`` (``ValueError`` lists what is there otherwise). The plant is the
-    compiled engine (``PneumaticPlant(integrator='embedded')``); panels of one module geometry
-    share one static table.
+    Each panel is actuated like its kind's preset module (the quad demonstrator or the
+    hexagonal module, see :func:`~flectofold_model.actuation.kinds.actuated_like`);
+    ``panel_ids`` must name panels of ``facade`` (``ValueError`` lists what is there
+    otherwise). The plant is the compiled engine (``PneumaticPlant(integrator='embedded')``);
+    panels of one module geometry share one static table.
     """
     indices = panel_indices(facade, panel_ids)
-    model = ActuationModel([actuated_like(facade.panels[i]) for i in indices])
+    model = actuation_model_of(actuated_like(facade.panels[i]) for i in indices)
     cushion_map = CushionMap(model)
     driver = SimulatedCushions(PneumaticPlant(circuit, cushion_map, len(indices), seed=seed,
                                               integrator='embedded'))

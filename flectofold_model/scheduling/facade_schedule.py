@@ -17,8 +17,9 @@ from dataclasses import fields
 
 import numpy as np
 
-from flectofold_model.actuation import (actuated_like, ActuationModel, ATMOSPHERIC_PRESSURE_PA,
-                                        DEMONSTRATOR_PLANT)
+from flectofold_model.actuation import (actuated_like, actuation_model_of,
+                                        ATMOSPHERIC_PRESSURE_PA, DEMONSTRATOR_PLANT)
+from flectofold_model.kinematics.hexagon.panel import HexagonPanel
 from flectofold_model.scheduling.scheduler import Scheduler, SchedulerParameters
 from flectofold_model.shading.table import ShadingTable
 
@@ -30,22 +31,23 @@ def scheduler_parameters(facade):
 
 
 def full_close_air_nl(facade):
-    """Free air [NL] that closes each panel from open, with the demonstrator's actuation.
+    """Free air [NL] that closes each panel from open, actuated like its kind's preset.
 
     ``(p_closed V_closed - p_atm V_open) / p_atm`` with absolute pressures and the tubing's dead
     volume, from the static actuation model of each panel's own geometry.
     """
-    model = ActuationModel([actuated_like(panel) for panel in facade.panels])
+    model = actuation_model_of(actuated_like(panel) for panel in facade.panels)
     dead = DEMONSTRATOR_PLANT.dead_volume_m3
     closed = (ATMOSPHERIC_PRESSURE_PA + model.closed_pressure_pa) * (
-        model.cushion_volume_m3(model.fold.closed_k) + dead)
-    opened = ATMOSPHERIC_PRESSURE_PA * (model.cushion_volume_m3(model.fold.open_k) + dead)
+        model.cushion_volume_m3(model.fold.closed_shape) + dead)
+    opened = ATMOSPHERIC_PRESSURE_PA * (model.cushion_volume_m3(model.fold.open_shape) + dead)
     return (closed - opened) / ATMOSPHERIC_PRESSURE_PA * 1e3
 
 
 def representative_panel(facade):
     """Pick the facade's median panel by area, for which the shading table is built."""
-    areas = [panel.length_m * panel.width_m for panel in facade.panels]
+    areas = [panel.area_m2 if isinstance(panel, HexagonPanel) else panel.length_m * panel.width_m
+             for panel in facade.panels]
     return facade.panels[int(np.argsort(areas)[len(areas) // 2])]
 
 
