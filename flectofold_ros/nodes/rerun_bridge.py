@@ -46,6 +46,12 @@ PARAMETERS = {
 }
 
 
+def _misplaced(count):
+    if not count:
+        return ''
+    return f" ({count} not where this facade puts their panel: another facade's states?)"
+
+
 class RerunBridge(Node):
     """Node ``rerun_bridge`` in namespace ``/facade``."""
 
@@ -78,6 +84,7 @@ class RerunBridge(Node):
         self.flush_wall_s = 0.0
         self.flush_max_s = 0.0
         self.flushes = 0
+        self._warned_misplaced = False
 
     def _value(self, name):
         return self.get_parameter(name).value
@@ -111,6 +118,7 @@ class RerunBridge(Node):
                 'panels_remeshed_per_s': counts.panels_remeshed / wall_s,
                 'samples_logged': counts.samples_logged,
                 'events_logged': counts.events_logged, 'rejected': counts.rejected,
+                'misplaced': counts.misplaced,
                 'flush_mean_s': self.flush_wall_s / max(self.flushes, 1),
                 'flush_max_s': self.flush_max_s,
                 'lag_median_s': lag[len(lag) // 2] if lag else 0.0,
@@ -128,6 +136,12 @@ class RerunBridge(Node):
     def _report(self):
         self._watch_viewer()
         figures = self.figures()
+        if figures['misplaced'] and not self._warned_misplaced:
+            self._warned_misplaced = True
+            self.get_logger().warning(
+                f'{figures["misplaced"]} panel states are not where facade '
+                f'{self.scene.facade.name!r} puts their panels, and are not drawn: the panels '
+                f'run another facade (start the bridge with their facade_file)')
         self._diagnostics.publish(diagnostics.diagnostic_array(self, [diagnostics.status(
             self, diagnostics.OK, 'rerun', contract.RERUN_BRIDGE_NODE,
             f'{figures["meshes_logged"]} facade meshes logged', figures)]))
@@ -140,7 +154,8 @@ class RerunBridge(Node):
         return (f'rerun_bridge: {f["meshes_logged"]} facade meshes, {f["panels_remeshed"]} '
                 f'panels re-meshed ({f["panels_remeshed_per_s"]:.1f}/s, '
                 f'{f["panels_unchanged"]} unchanged skipped), {f["samples_logged"]} samples, '
-                f'{f["rejected"]} rejected; lag behind the clock median '
+                f'{f["rejected"]} rejected{_misplaced(f["misplaced"])}; lag behind the '
+                f'clock median '
                 f'{f["lag_median_s"]:.1f} s, max {f["lag_max_s"]:.1f} s; flush mean '
                 f'{1e3 * f["flush_mean_s"]:.1f} ms, max {1e3 * f["flush_max_s"]:.1f} ms, '
                 f'{100 * f["flush_cpu_share"]:.1f} % of wall; to {", ".join(where)}')

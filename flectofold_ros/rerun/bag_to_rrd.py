@@ -84,4 +84,10 @@ def convert(bag_path, rrd_path, facade, color_by='closure', flush_period_s=1.0,
     scene.counts.rejected += decode_errors
     recording.flush()
     recording.disconnect()
+    if scene.counts.misplaced:
+        Path(rrd_path).unlink(missing_ok=True)
+        raise BagError(
+            f'{bag_path}: {scene.counts.misplaced} panel states are not where facade '
+            f'{facade.name!r} puts their panels: the bag was recorded with another facade; '
+            f'convert it with --facade <the facade it was recorded with>')
     return scene.counts

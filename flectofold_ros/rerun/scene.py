@@ -68,6 +68,10 @@ _RAMP = np.array([[236, 226, 198], [122, 170, 160], [24, 78, 104]], dtype=float)
 _SURFACE_RGBA = (150, 150, 150, 90)
 _BAND_COLOURS = [(24, 78, 104, 255), (122, 170, 160, 255), (122, 170, 160, 255)]
 SUN_ARROW_M = 3.0
+#: How far a panel state's position may be from its panel's origin in the facade [m]: the
+#: states carry positions in float32 (about 1 um at 10 m); a state farther off belongs to
+#: another facade.
+PLACEMENT_TOLERANCE_M = 0.01
 #: Vertices of the whole facade mesh that :func:`facade_topology` stays within.
 FACADE_VERTEX_BUDGET = 60_000
 
@@ -154,8 +158,11 @@ class SceneCounts:
     """Scalars logged to the per-panel series (one per panel, quantity and row)."""
     events_logged: int = 0
     rejected: int = 0
-    """Messages that are not panel states; panel states of unknown panels or with non-finite
-    values; bad sun vectors. Dropped."""
+    """Messages that are not panel states; panel states of unknown panels, misplaced or with
+    non-finite values; bad sun vectors. Dropped."""
+    misplaced: int = 0
+    """Panel states whose position is not where this facade puts that panel: states of
+    another facade (a bag recorded with one, converted with another). Dropped."""
 
 
 def facade_blueprint():
@@ -341,16 +348,22 @@ class FacadeScene:
     def panel_states(self, stamp_ns, table):
         """Take one panel_states message: ``table`` from :func:`panel_states.unpack`.
 
-        ``stamp_ns`` is its header stamp [ns of ROS time]. Points of unknown panels and points
-        with a non-finite closure or fold angle or an infinite pressure are counted in
-        ``rejected`` and ignored; a NaN pressure is "no reading" (the gauge series shows NaN).
-        Returns the number of panel states taken.
+        ``stamp_ns`` is its header stamp [ns of ROS time]. Points of unknown panels, points
+        more than :data:`PLACEMENT_TOLERANCE_M` from where the facade puts their panel
+        (counted in ``misplaced`` too) and points with a non-finite closure or fold angle or an
+        infinite pressure are counted in ``rejected`` and ignored; a NaN pressure is "no
+        reading" (the gauge series shows NaN). Returns the number of panel states taken.
         """
         index = self.panel_indices(table)
         closure = table['closure'].astype(np.float64)
         angle = table['fold_angle_rad'].astype(np.float64)
         pressure = table['pressure_pa'].astype(np.float64)
-        valid = ((index >= 0) & np.isfinite(closure) & np.isfinite(angle)
+        known = index >= 0
+        where = np.stack([table[axis].astype(np.float64) for axis in 'xyz'], axis=-1)
+        offset = np.linalg.norm(where - self.positions_enu[np.where(known, index, 0)], axis=-1)
+        misplaced = known & ~(offset <= PLACEMENT_TOLERANCE_M)
+        self.counts.misplaced += int(np.count_nonzero(misplaced))
+        valid = (known & ~misplaced & np.isfinite(closure) & np.isfinite(angle)
                  & ~np.isinf(pressure))
         self.counts.rejected += int(len(table) - np.count_nonzero(valid))
         if not valid.any():

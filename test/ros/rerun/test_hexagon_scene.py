@@ -3,14 +3,18 @@
 from builtin_interfaces.msg import Time
 import numpy as np
 import pytest
+from rclpy.serialization import serialize_message
+import rerun as rr
 from rrd_reading import Rrd
 from sensor_msgs.msg import PointCloud2, PointField
 
 from flectofold_model.actuation import ATMOSPHERIC_PRESSURE_PA
-from flectofold_model.facade import load_facade
+from flectofold_model.facade import DEFAULT_FACADE, load_facade
 from flectofold_model.kinematics.hexagon import DEFAULT_HEXAGON_TOPOLOGY, HexagonTopology
 from flectofold_model.kinematics.kinds import fold_model_of
 from flectofold_ros import contract, panel_states
+from flectofold_ros.recording.bag_segments import BagError, SegmentedBagWriter
+from flectofold_ros.rerun.bag_to_rrd import convert
 from flectofold_ros.rerun.scene import (facade_topology, FACADE_VERTEX_BUDGET, FacadeScene,
                                         feed)
 from flectofold_ros.rerun.sinks import check_rrd_path, open_recording
@@ -29,6 +33,10 @@ def closures_at(step, count):
 
 
 def send(scene, closure, stamp_ns):
+    feed(scene, contract.PANEL_STATES.name, state_message(scene, closure, stamp_ns))
+
+
+def state_message(scene, closure, stamp_ns):
     count = len(scene)
     table = panel_states.new_table(count)
     table['x'], table['y'], table['z'] = scene.positions_enu.T
@@ -39,8 +47,7 @@ def send(scene, closure, stamp_ns):
     table['row'], table['column'] = panel_states.id_numbers(scene.panel_ids)
     table['status'] = contract.STATUSES.index('tracking')
     stamp = Time(sec=stamp_ns // 10**9, nanosec=stamp_ns % 10**9)
-    feed(scene, contract.PANEL_STATES.name,
-         panel_states.fill_message(PointCloud2(), table, stamp, PointField))
+    return panel_states.fill_message(PointCloud2(), table, stamp, PointField)
 
 
 def world_mesh(scene, closure):
@@ -101,3 +108,21 @@ def test_the_facade_resolution_is_the_fine_mesh_on_fewer_rings_and_columns(facad
         mine = coarse.vertices[:, small.flap(index)].reshape(3, 13, 2, 3)
         outer = fine.vertices[:, fine_topology.flap(index)].reshape(3, 13, -1, 3)
         np.testing.assert_allclose(mine, outer[:, :, [0, -1]], atol=1e-12)
+
+
+def test_a_hexagonal_bag_converted_with_the_quad_facade_is_refused(tmp_path, facade):
+    recording = rr.RecordingStream('test', recording_id='bag')
+    rr.binary_stream(recording=recording)
+    scene = FacadeScene(facade, recording)  # for its tables
+    with SegmentedBagWriter(tmp_path / 'bag') as writer:
+        writer.add_topic(contract.PANEL_STATES.name, contract.PANEL_STATES.msgtype)
+        for step in range(3):
+            t_ns = T0_NS + step * STEP_NS
+            message = state_message(scene, np.full(len(scene), 0.5), t_ns)
+            writer.write(contract.PANEL_STATES.name, t_ns, serialize_message(message))
+    counts = convert(tmp_path / 'bag', tmp_path / 'right.rrd', facade)
+    assert counts.misplaced == 0 and counts.states_taken == 3 * len(facade)
+    # The quad demonstrator has panels of the same ids, elsewhere.
+    with pytest.raises(BagError, match='not where facade .* puts their panels'):
+        convert(tmp_path / 'bag', tmp_path / 'wrong.rrd', load_facade(DEFAULT_FACADE))
+    assert not (tmp_path / 'wrong.rrd').exists()
