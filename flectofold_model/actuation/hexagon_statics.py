@@ -121,13 +121,7 @@ class HexagonActuationModel(StaticActuationModel):
     derivative_step = RISE_STEP_M
 
     def __init__(self, panels, quadrature_points=24):
-        panels = list(panels)
-        if not panels:
-            raise ValueError('an actuation model needs at least one panel')
-        for index, panel in enumerate(panels):
-            if not isinstance(panel, HexagonActuatedPanel):
-                raise TypeError(f'panel {index} is a {type(panel).__name__}, '
-                                f'not a HexagonActuatedPanel')
+        panels = self._checked_panels(panels, HexagonActuatedPanel)
         if isinstance(quadrature_points, bool) or not isinstance(quadrature_points, int) \
                 or quadrature_points < 4:
             raise ValueError(f'quadrature_points must be an integer of at least 4, got '

@@ -33,6 +33,19 @@ class StaticActuationModel:
 
     shape_name = 'shape'
 
+    @staticmethod
+    def _checked_panels(panels, kind):
+        """Return the panels as a list; refuse none at all and any that is not a ``kind``."""
+        panels = list(panels)
+        if not panels:
+            raise ValueError('an actuation model needs at least one panel')
+        article = 'an' if kind.__name__[0] in 'AEIOU' else 'a'
+        for index, panel in enumerate(panels):
+            if not isinstance(panel, kind):
+                raise TypeError(f'panel {index} is a {type(panel).__name__}, '
+                                f'not {article} {kind.__name__}')
+        return panels
+
     def __len__(self):
         return len(self.panels)
 

@@ -100,13 +100,7 @@ class ActuationModel(StaticActuationModel):
     derivative_step = DERIVATIVE_STEP
 
     def __init__(self, panels, quadrature_points=32):
-        panels = list(panels)
-        if not panels:
-            raise ValueError('an actuation model needs at least one panel')
-        for index, panel in enumerate(panels):
-            if not isinstance(panel, ActuatedPanel):
-                raise TypeError(f'panel {index} is a {type(panel).__name__}, '
-                                f'not an ActuatedPanel')
+        panels = self._checked_panels(panels, ActuatedPanel)
         self.panels = panels
         self.quadrature_points = quadrature_points
         self.fold = FoldModel(PanelBatch.from_panels(p.geometry for p in panels))

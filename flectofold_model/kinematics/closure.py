@@ -22,8 +22,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from flectofold_model._validate import in_range, real_array
+from flectofold_model._validate import in_range
 from flectofold_model.kinematics import elastica
+from flectofold_model.kinematics.closure_map import LinearClosureMap
 from flectofold_model.kinematics.mesh import DEFAULT_TOPOLOGY, fold_mesh
 from flectofold_model.kinematics.panel import PanelBatch
 from flectofold_model.kinematics.reflection import (apex_fold_angle, crease_mismatch_m, flap_tip,
@@ -59,7 +60,7 @@ class FoldState:
         return self.elastica_k
 
 
-class FoldModel:
+class FoldModel(LinearClosureMap):
     """The closure map of a :class:`~.panel.PanelBatch`, vectorised over panels.
 
     Construction computes each panel's open (pre-fold) and closed states once. It raises
@@ -67,6 +68,9 @@ class FoldModel:
     than the gap between the reflected crease and the drawn fold line (the model's geometric
     error, which the real hinge has to take up).
     """
+
+    crease_name = 'reflected crease'
+    hinge_remedy = 'widen the hinge zone or use a larger fold radius'
 
     def __init__(self, batch):
         if not isinstance(batch, PanelBatch):
@@ -89,9 +93,6 @@ class FoldModel:
                                             crease_mismatch_m(batch, self.closed_k))
         self._check_hinges()
 
-    def __len__(self):
-        return len(self.batch)
-
     @property
     def open_shape(self):
         """Shape parameter (elastica modulus) of the open state, (N,)."""
@@ -111,16 +112,6 @@ class FoldModel:
         """Folded meshes at shape parameters (elastica moduli) ``shape`` (N,)."""
         return fold_mesh(self.batch, shape, topology or DEFAULT_TOPOLOGY, dtype, out)
 
-    def _check_hinges(self):
-        too_narrow = self.crease_mismatch_m > self.batch.hinge_width_m
-        if np.any(too_narrow):
-            index = int(np.flatnonzero(too_narrow)[0])
-            raise ValueError(
-                f'panel {index}: hinge_width_m={self.batch.hinge_width_m[index]:g} m cannot '
-                f'absorb the {self.crease_mismatch_m[index] * 1e3:.1f} mm by which the '
-                f'reflected crease leaves the drawn fold line; widen the hinge zone or use a '
-                f'larger fold radius')
-
     def _collision_limit(self):
         batch = self.batch
         cosine = ((batch.closed_clearance_m / 2 - batch.end_y_m)
@@ -135,27 +126,6 @@ class FoldModel:
         sag = sag_for_apex_fold_angle(self.batch, fold_angle_rad)
         limit = elastica.sag_from_k(elastica.K_MAX, self.batch.length_m)
         return elastica.k_from_sag(np.minimum(sag, limit), self.batch.length_m)
-
-    def _per_panel(self, name, value):
-        array = real_array(name, value)
-        try:
-            return np.broadcast_to(array, (len(self),))
-        except ValueError:
-            raise ValueError(f'{name} has shape {array.shape}; expected a scalar or '
-                             f'({len(self)},) for {len(self)} panels') from None
-
-    def fold_angle_from_closure(self, closure):
-        """Apex fold angle [rad] for closure in [0, 1]."""
-        closure = in_range('closure', self._per_panel('closure', closure), 0.0, 1.0)
-        return self.open_fold_angle_rad + closure * (self.closed_fold_angle_rad
-                                                     - self.open_fold_angle_rad)
-
-    def closure_from_fold_angle(self, fold_angle_rad):
-        """Closure for apex fold angles [rad] between the open and closed limits."""
-        fold_angle_rad = self._per_panel('fold_angle_rad', fold_angle_rad)
-        closure = ((fold_angle_rad - self.open_fold_angle_rad)
-                   / (self.closed_fold_angle_rad - self.open_fold_angle_rad))
-        return in_range('closure for fold_angle_rad', closure, 0.0, 1.0)
 
     def displacement_from_k(self, k):
         """Support displacement [m] since the open state for elastica moduli ``k``."""

@@ -36,6 +36,15 @@ class FoldMesh:
     """(F, 3) vertex indices, counter-clockwise seen from the front."""
 
 
+def check_counts(topology, least_counts):
+    """Refuse a topology field that is not an integer of at least its least count."""
+    for name, least in least_counts:
+        value = getattr(topology, name)
+        is_integer = isinstance(value, (int, np.integer)) and not isinstance(value, bool)
+        if not is_integer or value < least:
+            raise ValueError(f'{name} must be an integer of at least {least}, got {value!r}')
+
+
 @dataclass(frozen=True)
 class MeshTopology:
     """Grid resolution, vertex layout and faces of a panel mesh."""
@@ -45,11 +54,7 @@ class MeshTopology:
     flap_columns: int
 
     def __post_init__(self):
-        for name, least in (('stations', 2), ('midrib_columns', 2), ('flap_columns', 2)):
-            value = getattr(self, name)
-            is_integer = isinstance(value, (int, np.integer)) and not isinstance(value, bool)
-            if not is_integer or value < least:
-                raise ValueError(f'{name} must be an integer of at least {least}, got {value!r}')
+        check_counts(self, (('stations', 2), ('midrib_columns', 2), ('flap_columns', 2)))
 
     @property
     def vertex_count(self):
@@ -143,7 +148,7 @@ def fold_mesh(batch, k, topology=DEFAULT_TOPOLOGY, dtype=np.float64, out=None):
     if not isinstance(batch, PanelBatch):
         raise TypeError(f'fold_mesh needs a PanelBatch, got {type(batch).__name__}')
     k = np.broadcast_to(np.asarray(k, dtype=np.float64), (len(batch),))
-    vertices, normals = _output_arrays(out, (len(batch), topology.vertex_count, 3), dtype)
+    vertices, normals = output_arrays(out, (len(batch), topology.vertex_count, 3), dtype)
     shape = _station_shape(batch, k, topology)
     crease_y = crease_flat_y(batch, shape.normalized_height)
     front = np.stack([-np.sin(shape.slope_rad), np.zeros_like(shape.slope_rad),
@@ -188,7 +193,8 @@ def _station_shape(batch, k, topology):
                                   normalized_height=half.normalized_height[:, index])
 
 
-def _output_arrays(out, shape, dtype):
+def output_arrays(out, shape, dtype):
+    """Vertex and normal arrays of ``shape``: fresh, or those of ``out`` (a checked FoldMesh)."""
     if out is None:
         return np.empty(shape, dtype=dtype), np.empty(shape, dtype=dtype)
     if not isinstance(out, FoldMesh):

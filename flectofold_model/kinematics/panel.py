@@ -8,12 +8,13 @@ at ``y = +-(midrib_width_m / 2 - h_c)``, where ``h_c = R - sqrt(R**2 - L**2 / 4)
 sag of the arc. The flaps are the rest of the sheet beyond the fold lines.
 """
 
-from dataclasses import dataclass, fields
+from dataclasses import dataclass
 import math
 
 import numpy as np
 
 from flectofold_model._validate import real_fields, real_scalar
+from flectofold_model.kinematics.batch import PanelArrays
 
 
 @dataclass(frozen=True)
@@ -133,8 +134,10 @@ DEMONSTRATOR_MODULE = PanelGeometry.with_lens_midrib(
 
 
 @dataclass(frozen=True)
-class PanelBatch:
+class PanelBatch(PanelArrays):
     """Many panels as arrays of shape ``(N,)``: the form every vectorised function takes."""
+
+    panel_class = PanelGeometry
 
     length_m: np.ndarray
     width_m: np.ndarray
@@ -143,34 +146,6 @@ class PanelBatch:
     hinge_width_m: np.ndarray
     prefold_rad: np.ndarray
     closed_clearance_m: np.ndarray
-
-    @classmethod
-    def from_panels(cls, panels):
-        """Stack validated :class:`PanelGeometry` objects (any iterable, at least one)."""
-        panels = list(panels)
-        if not panels:
-            raise ValueError('a panel batch needs at least one panel')
-        for index, panel in enumerate(panels):
-            if not isinstance(panel, PanelGeometry):
-                raise TypeError(f'panel {index} is a {type(panel).__name__}, not a PanelGeometry')
-        columns = {field.name: np.array([getattr(p, field.name) for p in panels])
-                   for field in fields(cls)}
-        return cls(**columns)
-
-    @classmethod
-    def repeat(cls, panel, count):
-        """``count`` copies of one panel."""
-        if isinstance(count, bool) or not isinstance(count, (int, np.integer)) or count < 1:
-            raise ValueError(f'count must be a positive integer, got {count!r}')
-        return cls.from_panels([panel]).take(np.zeros(int(count), dtype=np.intp))
-
-    def take(self, indices):
-        """Return the sub-batch at ``indices`` (any numpy index)."""
-        return PanelBatch(**{field.name: getattr(self, field.name)[indices]
-                             for field in fields(self)})
-
-    def __len__(self):
-        return self.length_m.shape[0]
 
     @property
     def fold_line_sag_m(self):

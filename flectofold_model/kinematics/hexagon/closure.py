@@ -24,7 +24,8 @@ import math
 import numpy as np
 from scipy.optimize.elementwise import find_root
 
-from flectofold_model._validate import in_range, real_array
+from flectofold_model._validate import in_range
+from flectofold_model.kinematics.closure_map import LinearClosureMap
 from flectofold_model.kinematics.hexagon import cone
 from flectofold_model.kinematics.hexagon.mesh import DEFAULT_HEXAGON_TOPOLOGY, hexagon_mesh
 from flectofold_model.kinematics.hexagon.panel import (hexagon_radius_m, HexagonBatch,
@@ -36,8 +37,6 @@ MAX_APEX_FOLD_ANGLE_RAD = math.radians(120.0)
 #: Largest spoke tilt searched [rad]: a steeper cone is no longer a small rise.
 MAX_SPOKE_TILT_RAD = math.radians(25.0)
 _BISECTIONS = 52
-#: Closure a computed fold angle may miss its interval by (the bisections' rounding).
-_ROUNDING = 1e-9
 _ROOT_TOLERANCES = {'xatol': 1e-15, 'xrtol': 4 * np.finfo(float).eps}
 _MONOTONE_CHECK_STATES = 33
 
@@ -107,13 +106,16 @@ def _rise_for_fold_angle(batch, fold_angle_rad, highest_m):
     return np.clip(result.x, 0.0, highest_m)
 
 
-class HexagonFoldModel:
+class HexagonFoldModel(LinearClosureMap):
     """The closure map of a :class:`~.panel.HexagonBatch`, vectorised over panels.
 
     Construction finds each panel's open (pre-fold) and closed rises. It raises
     ``ValueError`` for a pre-fold at or beyond the closed limit and for a hinge zone narrower
     than the gap between the crease and the drawn fold line.
     """
+
+    crease_name = 'crease'
+    hinge_remedy = 'widen the hinge zone or change fold_line_sag_m'
 
     def __init__(self, batch):
         if not isinstance(batch, HexagonBatch):
@@ -148,9 +150,6 @@ class HexagonFoldModel:
             SectorGeometry(batch, self.open_rise_m).crease_mismatch_m(),
             SectorGeometry(batch, self.closed_rise_m).crease_mismatch_m())
         self._check_hinges()
-
-    def __len__(self):
-        return len(self.batch)
 
     @property
     def open_shape(self):
@@ -197,38 +196,6 @@ class HexagonFoldModel:
         if np.any(np.diff(angles.reshape(rises.shape), axis=-1) <= 0.0):
             raise ValueError('the apex fold angle does not grow with the centre rise: the '
                              'closure map would not invert')
-
-    def _check_hinges(self):
-        too_narrow = self.crease_mismatch_m > self.batch.hinge_width_m
-        if np.any(too_narrow):
-            index = int(np.flatnonzero(too_narrow)[0])
-            raise ValueError(
-                f'panel {index}: hinge_width_m={self.batch.hinge_width_m[index]:g} m cannot '
-                f'absorb the {self.crease_mismatch_m[index] * 1e3:.1f} mm by which the '
-                f'crease leaves the drawn fold line; widen the hinge zone or change '
-                f'fold_line_sag_m')
-
-    def _per_panel(self, name, value):
-        array = real_array(name, value)
-        try:
-            return np.broadcast_to(array, (len(self),))
-        except ValueError:
-            raise ValueError(f'{name} has shape {array.shape}; expected a scalar or '
-                             f'({len(self)},) for {len(self)} panels') from None
-
-    def fold_angle_from_closure(self, closure):
-        """Apex fold angle [rad] for closure in [0, 1]."""
-        closure = in_range('closure', self._per_panel('closure', closure), 0.0, 1.0)
-        return self.open_fold_angle_rad + closure * (self.closed_fold_angle_rad
-                                                     - self.open_fold_angle_rad)
-
-    def closure_from_fold_angle(self, fold_angle_rad):
-        """Closure for apex fold angles [rad] between the open and closed limits."""
-        fold_angle_rad = self._per_panel('fold_angle_rad', fold_angle_rad)
-        closure = ((fold_angle_rad - self.open_fold_angle_rad)
-                   / (self.closed_fold_angle_rad - self.open_fold_angle_rad))
-        in_range('closure for fold_angle_rad', closure, -_ROUNDING, 1.0 + _ROUNDING)
-        return np.clip(closure, 0.0, 1.0)
 
     def shape_from_fold_angle(self, fold_angle_rad):
         """Centre rise [m] for apex fold angles [rad] between the open and closed limits."""

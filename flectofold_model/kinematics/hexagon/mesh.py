@@ -28,7 +28,7 @@ from flectofold_model.kinematics.hexagon.panel import (hexagon_radius_m, Hexagon
                                                        SECTOR_RAD)
 from flectofold_model.kinematics.hexagon.reflection import (centre_point, plane_through, reflect,
                                                             rotation_about_z)
-from flectofold_model.kinematics.mesh import FoldMesh
+from flectofold_model.kinematics.mesh import check_counts, FoldMesh, output_arrays
 
 
 @dataclass(frozen=True)
@@ -40,11 +40,7 @@ class HexagonTopology:
     flap_columns: int
 
     def __post_init__(self):
-        for name, least in (('rulings_per_sector', 2), ('rings', 1), ('flap_columns', 2)):
-            value = getattr(self, name)
-            is_integer = isinstance(value, (int, np.integer)) and not isinstance(value, bool)
-            if not is_integer or value < least:
-                raise ValueError(f'{name} must be an integer of at least {least}, got {value!r}')
+        check_counts(self, (('rulings_per_sector', 2), ('rings', 1), ('flap_columns', 2)))
         if self.rulings_per_sector % 2:
             raise ValueError(f'rulings_per_sector must be even (a ruling runs through each '
                              f'crease apex), got {self.rulings_per_sector}')
@@ -150,7 +146,7 @@ def hexagon_mesh(batch, rise_m, topology=DEFAULT_HEXAGON_TOPOLOGY, dtype=np.floa
         raise TypeError(f'topology must be a HexagonTopology, got {type(topology).__name__}')
     rise_m = np.broadcast_to(np.asarray(rise_m, dtype=np.float64), (len(batch),))
     shape = (len(batch), topology.vertex_count, 3)
-    vertices, normals = _outputs(out, shape, dtype)
+    vertices, normals = output_arrays(out, shape, dtype)
     m, rings, columns = topology.rulings_per_sector, topology.rings, topology.flap_columns
     directions, centre, plane_normal, offset, crease = _sector_frame(batch, rise_m, topology)
     front = _ruling_normals(directions)
@@ -196,15 +192,3 @@ def flat_coordinates(batch, rise_m, topology=DEFAULT_HEXAGON_TOPOLOGY):
     radius = np.where(np.arange(azimuth.size) < topology.cone_vertex_count,
                       crease_here * fraction, crease_here + (edge - crease_here) * fraction)
     return np.stack([radius * np.cos(azimuth), radius * np.sin(azimuth)], axis=-1)
-
-
-def _outputs(out, shape, dtype):
-    if out is None:
-        return np.empty(shape, dtype=dtype), np.empty(shape, dtype=dtype)
-    if not isinstance(out, FoldMesh):
-        raise TypeError(f'out must be a FoldMesh, got {type(out).__name__}')
-    for array in (out.vertices, out.normals):
-        if array.shape != shape or array.dtype != np.dtype(dtype):
-            raise ValueError(f'out holds {array.dtype} arrays of shape {array.shape}; this call '
-                             f'needs {np.dtype(dtype)} arrays of shape {shape}')
-    return out.vertices, out.normals

@@ -17,12 +17,13 @@ on the vertex-centre axis does. The central part, inside the three fold lines, i
 actuated part: the cushion behind it moves its centre point along the triangle's normal.
 """
 
-from dataclasses import dataclass, fields
+from dataclasses import dataclass
 import math
 
 import numpy as np
 
 from flectofold_model._validate import real_fields
+from flectofold_model.kinematics.batch import PanelArrays
 
 #: Azimuth of triangle vertex T_0 [rad]; T_i and flap tip H_i follow every 120 degrees.
 FIRST_VERTEX_AZIMUTH_RAD = math.pi / 2
@@ -80,41 +81,16 @@ class HexagonPanel:
 
 
 @dataclass(frozen=True)
-class HexagonBatch:
+class HexagonBatch(PanelArrays):
     """Many hexagonal panels as arrays of shape ``(N,)``."""
+
+    panel_class = HexagonPanel
 
     circumradius_m: np.ndarray
     fold_line_sag_m: np.ndarray
     hinge_width_m: np.ndarray
     prefold_rad: np.ndarray
     closed_clearance_m: np.ndarray
-
-    @classmethod
-    def from_panels(cls, panels):
-        """Stack validated :class:`HexagonPanel` objects (any iterable, at least one)."""
-        panels = list(panels)
-        if not panels:
-            raise ValueError('a panel batch needs at least one panel')
-        for index, panel in enumerate(panels):
-            if not isinstance(panel, HexagonPanel):
-                raise TypeError(f'panel {index} is a {type(panel).__name__}, not a HexagonPanel')
-        return cls(**{field.name: np.array([getattr(p, field.name) for p in panels])
-                      for field in fields(cls)})
-
-    @classmethod
-    def repeat(cls, panel, count):
-        """``count`` copies of one panel."""
-        if isinstance(count, bool) or not isinstance(count, (int, np.integer)) or count < 1:
-            raise ValueError(f'count must be a positive integer, got {count!r}')
-        return cls.from_panels([panel]).take(np.zeros(int(count), dtype=np.intp))
-
-    def take(self, indices):
-        """Return the sub-batch at ``indices`` (any numpy index)."""
-        return HexagonBatch(**{field.name: getattr(self, field.name)[indices]
-                               for field in fields(self)})
-
-    def __len__(self):
-        return self.circumradius_m.shape[0]
 
     @property
     def edge_distance_m(self):
