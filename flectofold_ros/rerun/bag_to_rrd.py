@@ -80,6 +80,8 @@ def convert(bag_path, rrd_path, facade, color_by='closure', flush_period_s=1.0,
             decode_errors += 1
             continue
         feed(scene, topic, message, t_ns)
+        if scene.counts.misplaced:  # another facade's bag: say so now, not after all of it
+            break
     scene.flush()
     scene.counts.rejected += decode_errors
     recording.flush()

@@ -35,12 +35,14 @@ def day_bag(tmp_path_factory):
     """Write a bag of the demonstrator's panel states, every panel moving every second."""
     facade = load_facade(DEFAULT_FACADE)
     rows, columns = panel_states.id_numbers(facade.panel_ids)
+    origins = facade.origin_m @ facade.facade_to_enu.T
     path = tmp_path_factory.mktemp('bags') / 'day'
     with SegmentedBagWriter(path) as writer:
         writer.add_topic(contract.PANEL_STATES.name, contract.PANEL_STATES.msgtype)
         for step in range(STATES):
             closure = 0.5 + 0.45 * np.sin(step / 20.0 + np.arange(len(facade)) / 5.0)
             table = panel_states.new_table(len(facade))
+            table['x'], table['y'], table['z'] = origins.T  # where the facade puts each panel
             table['closure'] = table['setpoint'] = table['fold_angle_rad'] = closure
             table['pressure_pa'] = ATMOSPHERIC_PRESSURE_PA + 8e3 * closure
             table['row'], table['column'] = rows, columns
