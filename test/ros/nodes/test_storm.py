@@ -153,8 +153,10 @@ def storm(small_facade_text, tmp_path_factory):
     ready = lambda: (all(p.get_subscription_count() for p in inputs)  # noqa: E731
                      and graph.node.count_publishers(setpoint) and day.states)
     start_s = float(np.floor(epochs[noon]))
-    for _ in range(600):  # the clock repeats its start until both processes are up
-        day.tick(start_s)
+    for attempt in range(600):  # the clock creeps on from the start until both are up
+        # A step of one state period each time: with the clock held still the panels publish
+        # one state only, lost if it goes out before this node's subscription is matched.
+        day.tick(start_s + 0.1 * attempt)
         if graph.spin_until(ready, 0.2):
             break
     assert ready(), [graph.stop(p)[1] for p in (panels, coordinator)]
@@ -165,7 +167,7 @@ def storm(small_facade_text, tmp_path_factory):
     # with the clock until the first setpoints show it was (as the sun node repeats it).
     for _ in range(50):
         day.sun.publish(message)
-        day.tick(start_s)
+        day.tick(day.now_s)
         if graph.spin_until(lambda: all(day.setpoints.values()), 0.2):
             break
     day.weather(3.0)
