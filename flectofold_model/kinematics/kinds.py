@@ -9,10 +9,9 @@ that fixes a panel's shape: the mid-rib's elastica modulus for a quad panel, the
 """
 
 from flectofold_model.kinematics.closure import FoldModel
-from flectofold_model.kinematics.hexagon import (DEFAULT_HEXAGON_TOPOLOGY, HexagonBatch,
-                                                 HexagonFoldModel, HexagonPanel,
+from flectofold_model.kinematics.hexagon import (HexagonBatch, HexagonFoldModel, HexagonPanel,
                                                  HexagonTopology)
-from flectofold_model.kinematics.mesh import DEFAULT_TOPOLOGY, MeshTopology
+from flectofold_model.kinematics.mesh import MeshTopology
 from flectofold_model.kinematics.panel import PanelBatch, PanelGeometry
 
 #: Panel kind name -> (panel class, batch class, fold model class).
@@ -50,13 +49,6 @@ def fold_model_of(panels):
     else:
         batch = batch_of(panels)
     return KINDS[panel_kind(batch)][2](batch)
-
-
-def default_topology(batch):
-    """Return the default display topology of a batch's kind."""
-    if isinstance(batch, HexagonBatch):
-        return DEFAULT_HEXAGON_TOPOLOGY
-    return DEFAULT_TOPOLOGY
 
 
 def is_topology_for(batch, topology):
