@@ -38,6 +38,7 @@ setup(
             'panel_node = flectofold_ros.executables:panel_node',
             'panel_group = flectofold_ros.executables:panel_group',
             'sun_position_node = flectofold_ros.executables:sun_position_node',
+            'weather_node = flectofold_ros.executables:weather_node',
             'coordinator_node = flectofold_ros.executables:coordinator_node',
             'facade = flectofold_ros.executables:facade',
             'rerun_bridge = flectofold_ros.executables:rerun_bridge',

@@ -94,6 +94,11 @@ DIAGNOSTICS = Topic('/diagnostics', 'diagnostic_msgs/msg/DiagnosticArray')
 SUN = Topic(f'{FACADE_NAMESPACE}/sun', 'geometry_msgs/msg/Vector3Stamped')
 WIND_SPEED = Topic(f'{FACADE_NAMESPACE}/wind_speed', 'std_msgs/msg/Float64')
 DNI = Topic(f'{FACADE_NAMESPACE}/dni', 'std_msgs/msg/Float64')
+#: The weather node's other readings (``weather.md``): diffuse horizontal irradiance
+#: [W/m2], wind direction [rad, from north, clockwise] and air temperature [degC].
+DHI = Topic(f'{FACADE_NAMESPACE}/dhi', 'std_msgs/msg/Float64')
+WIND_DIRECTION = Topic(f'{FACADE_NAMESPACE}/wind_direction', 'std_msgs/msg/Float64')
+AIR_TEMPERATURE = Topic(f'{FACADE_NAMESPACE}/air_temperature', 'std_msgs/msg/Float64')
 OVERRIDE = Topic(f'{FACADE_NAMESPACE}/override', 'sensor_msgs/msg/JointState')
 OVERRIDE_CLEAR = Topic(f'{FACADE_NAMESPACE}/override_clear', 'std_msgs/msg/String')
 #: ``override``, ``override_clear`` and ``inject_fault`` name this instead of a panel id for
@@ -174,6 +179,7 @@ PANEL_NODE = 'panel'
 """Name of a panel's node; its namespace is :func:`panel_namespace`."""
 COORDINATOR_NODE = 'coordinator'
 SUN_POSITION_NODE = 'sun_position'
+WEATHER_NODE = 'weather'
 MONITOR_NODE = 'facade_monitor'
 RERUN_BRIDGE_NODE = 'rerun_bridge'
 RECORDER_NODE = 'bag_recorder'
@@ -185,7 +191,8 @@ FACADE_NODE_NAMESPACE = FACADE_NAMESPACE
 #: What the recorder records unless told otherwise: the facade-level state, the facade's inputs,
 #: ``/diagnostics`` and ``/clock``; not the per-panel topics (``/facade/**`` adds them).
 RECORDED_BY_DEFAULT = (FACADE_JOINT_STATES.name, PANEL_STATES.name, SUN.name, WIND_SPEED.name,
-                       DNI.name, OVERRIDE.name, OVERRIDE_CLEAR.name, INJECT_FAULT.name,
+                       DNI.name, DHI.name, WIND_DIRECTION.name, AIR_TEMPERATURE.name,
+                       OVERRIDE.name, OVERRIDE_CLEAR.name, INJECT_FAULT.name,
                        DIAGNOSTICS.name, CLOCK.name)
 
 # -- diagnostics ------------------------------------------------------------------------------

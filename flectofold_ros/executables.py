@@ -22,6 +22,7 @@ EXECUTABLES = {
     'panel_node': ('flectofold_ros.nodes.panel', 0),
     'panel_group': ('flectofold_ros.nodes.panel_group', 0),
     'sun_position_node': ('flectofold_ros.nodes.sun_position', 0),
+    'weather_node': ('flectofold_ros.nodes.weather', 0),
     'coordinator_node': ('flectofold_ros.nodes.coordinator', 0),
     'facade': ('flectofold_ros.bringup.cli', 130),
     'rerun_bridge': ('flectofold_ros.nodes.rerun_bridge', 0),
@@ -77,6 +78,7 @@ day_report = _entry_point('day_report')
 panel_node = _entry_point('panel_node')
 panel_group = _entry_point('panel_group')
 sun_position_node = _entry_point('sun_position_node')
+weather_node = _entry_point('weather_node')
 coordinator_node = _entry_point('coordinator_node')
 facade = _entry_point('facade')
 rerun_bridge = _entry_point('rerun_bridge')

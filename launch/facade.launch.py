@@ -2,7 +2,7 @@
 
 ``ros2 launch flectofold_ros facade.launch.py [facade_file:=PATH] [date:=2026-06-21]
 [start:=12:00] [end:=15:00] [speedup:=360.0] [panel_processes:=2] [record_bag:=DIR]
-[rerun_viewer:=auto|spawn|none|URL] [rrd_path:=day.rrd]``
+[rerun_viewer:=auto|spawn|none|URL] [rrd_path:=day.rrd] [weather_file:=PATH]``
 
 The launch-time counterpart of ``ros2 run flectofold_ros facade --panel-processes N``: the
 same :class:`flectofold_ros.bringup.plan.DayPlan` and so the same node parameters, but every
@@ -48,6 +48,8 @@ ARGUMENTS = {
     'rerun_viewer': ('', 'Start a rerun_bridge: auto, spawn, none (file only) or a gRPC URL; '
                          'empty: no bridge'),
     'rrd_path': ('', 'The bridge also saves this .rrd (see rerun_bridge.md)'),
+    'weather_file': ('', 'Play this EPW or TMY3 file into the coordinator (weather_node, '
+                         'weather.md); empty: no weather'),
 }
 
 
@@ -84,6 +86,11 @@ def launch_setup(context, *args, **kwargs):
                      arguments=plan.panel_group_arguments(group),
                      parameters=[plan.panel_parameters()], **RESPAWN)
                 for group in range(plan.panel_processes)]
+    weather_file = _absolute(_configuration(context, 'weather_file'))
+    if weather_file:
+        actions.append(Node(package=PACKAGE, executable='weather_node',
+                            name=contract.WEATHER_NODE, output='screen',
+                            parameters=[plan.weather_parameters(weather_file)], **RESPAWN))
     return actions + _observers(context, plan)
 
 

@@ -32,6 +32,8 @@ from flectofold_ros.nodes.coordinator import CoordinatorNode
 from flectofold_ros.nodes.panel import MAX_CALL_S, start_panels
 from flectofold_ros.nodes.panel_group import group_slice
 from flectofold_ros.nodes.sun_position import SunPositionNode
+from flectofold_ros.nodes.weather import (site_distance_deg, WEATHER_SITE_TOLERANCE_DEG,
+                                          WeatherNode)
 from flectofold_ros.recording.bag_segments import check_bag
 from flectofold_ros.runner import Program, run_nodes, stop_requested
 
@@ -83,6 +85,10 @@ def parse_arguments(argv):
     parser.add_argument('--faults', default='', metavar='FILE',
                         help='fault script YAML: faults injected into simulated panels at '
                              'chosen times (msg_docs/fault_injection.md)')
+    parser.add_argument('--weather', default='', metavar='FILE',
+                        help='play this EPW or TMY3 weather file into the coordinator (DNI, '
+                             'wind: storms happen); the day maps into the file by day of year '
+                             '(msg_docs/weather.md)')
     parser.add_argument('--restart-limit', type=int, default=RestartPolicy.restart_limit,
                         help='restarts of a child process that keeps dying before its panels '
                              f'are given up (default {RestartPolicy.restart_limit}; 0: never '
@@ -201,6 +207,8 @@ class Bringup(Program):
             self.nodes += self.panels.nodes
         self.sun = SunPositionNode(parameter_overrides=parameters(plan.sun_parameters()))
         self.sun.hold()
+        if options.weather:
+            self.nodes.append(self._weather_node(options.weather))
         self.monitor = Monitor(self.facade)
         self._diagnostics = publisher(self.monitor, contract.DIAGNOSTICS)
         self.nodes += [self.sun, self.monitor]
@@ -217,6 +225,16 @@ class Bringup(Program):
         print(f'facade: {self.facade.name}, {len(self.facade)} panels ({where}), '
               f'{plan.start_iso} .. {plan.end_iso} at {plan.speedup:g}x; Ctrl-C stops',
               flush=True)
+
+    def _weather_node(self, path):
+        node = WeatherNode(parameter_overrides=parameters(self.plan.weather_parameters(path)))
+        away_deg = site_distance_deg(node.weather, self.sun.site)
+        if away_deg > WEATHER_SITE_TOLERANCE_DEG:
+            print(f'facade: warning: the weather file {node.weather.source} is for a site '
+                  f'{away_deg:.1f} deg away from the facade; the sun is still computed for the '
+                  'facade site',
+                  file=sys.stderr, flush=True)
+        return node
 
     # -- phases -----------------------------------------------------------------------------
 

@@ -10,6 +10,7 @@ from dataclasses import dataclass
 import datetime
 import math
 import numbers
+import os
 import sys
 
 
@@ -92,6 +93,9 @@ class DayPlan:
         return {'latitude_deg': latitude, 'longitude_deg': longitude, 'elevation_m': elevation,
                 'mode': 'simulated', 'start_time': self.start_iso, 'end_time': self.end_iso,
                 'speedup': self.speedup, 'clock_rate_hz': CLOCK_RATE_HZ}
+
+    def weather_parameters(self, weather_file):
+        return {'use_sim_time': True, 'weather_file': os.path.abspath(weather_file)}
 
     def panel_parameters(self):
         return {'use_sim_time': True, 'facade_file': self.facade_file,

@@ -13,6 +13,7 @@ import types
 import pytest
 
 from flectofold_model.facade.description import DEFAULT_FACADE, FacadeError, load_facade
+from flectofold_ros import contract
 from flectofold_ros.nodes.panel_group import group_slice
 
 LAUNCH_FILE = Path(__file__).resolve().parents[3] / 'launch' / 'facade.launch.py'
@@ -208,7 +209,8 @@ def test_declares_the_bringup_defaults(launch_module):
     defaults = _defaults(launch_module.generate_launch_description())
     assert defaults == {'facade_file': '', 'date': '2026-06-21', 'start': '12:00',
                         'end': '15:00', 'speedup': '360.0', 'panel_processes': '2',
-                        'record_bag': '', 'rerun_viewer': '', 'rrd_path': ''}
+                        'record_bag': '', 'rerun_viewer': '', 'rrd_path': '',
+                        'weather_file': ''}
 
 
 def test_defaults_launch_the_embedded_demonstrator(launch_module):
@@ -255,6 +257,15 @@ def test_the_recorder_and_the_bridge_on_request(launch_module, tmp_path):
     assert _parameters(bridge) == {'use_sim_time': True, 'viewer': 'none', 'facade_file': '',
                                    'rrd_path': str(tmp_path / 'day.rrd')}
     assert len(_nodes(launch_module)) == 4  # neither by default
+
+
+def test_the_weather_node_on_request_follows_the_clock_and_respawns(launch_module, tmp_path):
+    weather_file = tmp_path / 'site.epw'
+    (weather,) = _by_executable(_nodes(launch_module, weather_file=str(weather_file)),
+                                'weather_node')
+    assert _parameters(weather) == {'use_sim_time': True, 'weather_file': str(weather_file)}
+    assert weather['name'] == contract.WEATHER_NODE and weather['respawn']
+    assert not _by_executable(_nodes(launch_module), 'weather_node')
 
 
 def test_panel_processes_and_the_coordinator_respawn_the_clock_does_not(launch_module):
