@@ -59,8 +59,25 @@ HUNG_S = 15.0
 INTERRUPTED, FAILED, LOST = 130, 1, 3
 
 
+#: What the end-of-run summary's figures mean (``--help`` and the summary's last lines).
+FIGURES_HELP = (
+    'the summary at the end:\n'
+    '  NL                  normal litres: free air at the ISO 8778 reference atmosphere\n'
+    '                      (20 degC, 100 kPa), as compressor capacities are rated\n'
+    '  clock held          times (and wall seconds) the simulated clock was stopped so that\n'
+    '                      lagging panel loops or restarting panel processes catch up\n'
+    "  air budget          the coordinator's estimate of the air its closing moves need\n"
+    '                      (its compressed-air token bucket, scheduling.md)\n'
+    "  air drawn           the free air the panels' fill valves took from the supply\n"
+    '  |closure - setpoint| the tracking error at the end, closure 0 open .. 1 closed\n'
+    '  behind the clock    how far the slowest panel simulation lagged simulated time [s]\n'
+    '  cores               CPU seconds per wall second (1.00 = one core busy)')
+
+
 def parse_arguments(argv):
-    parser = argparse.ArgumentParser(prog='facade', description=__doc__.split('\n')[0])
+    parser = argparse.ArgumentParser(prog='facade', description=__doc__.split('\n')[0],
+                                     epilog=FIGURES_HELP,
+                                     formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument('--facade', default='', help='facade YAML (default: the embedded '
                         '6 x 6 anticlastic demonstrator)')
     parser.add_argument('--date', default='2026-06-21', help='local date of the day')
@@ -480,6 +497,8 @@ class Bringup(Program):
                      f'{usage.ru_maxrss / 1024:.0f} MB this process'
                      + (f', {children.ru_maxrss / 1024:.0f} MB largest child'
                         if children.ru_maxrss else ''))
+        lines.append('  (NL: normal litres of free air, ISO 8778: 20 degC, 100 kPa; '
+                     '`facade --help` explains every figure)')
         return lines
 
 
