@@ -19,6 +19,7 @@ from flectofold_ros.runner import Interrupted, stop_signals
 EXECUTABLES = {
     'fold_table': ('flectofold_ros.commands.fold_table', 130),
     'day_report': ('flectofold_ros.commands.day_report', 130),
+    'annual_report': ('flectofold_ros.commands.annual_report', 130),
     'panel_node': ('flectofold_ros.nodes.panel', 0),
     'panel_group': ('flectofold_ros.nodes.panel_group', 0),
     'sun_position_node': ('flectofold_ros.nodes.sun_position', 0),
@@ -75,6 +76,7 @@ def _entry_point(name):
 
 fold_table = _entry_point('fold_table')
 day_report = _entry_point('day_report')
+annual_report = _entry_point('annual_report')
 panel_node = _entry_point('panel_node')
 panel_group = _entry_point('panel_group')
 sun_position_node = _entry_point('sun_position_node')
