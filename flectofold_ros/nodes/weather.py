@@ -11,6 +11,7 @@ convention and the date mapping: ``msg_docs/weather.md``.
 import math
 import sys
 
+import numpy as np
 from rclpy.node import Node
 from std_msgs.msg import Float64
 
@@ -93,7 +94,6 @@ class WeatherNode(Node):
 
 def readings_at(weather, epoch_ns, gust_factor=1.0):
     """Return ``{field: value}`` of ``weather`` at ``epoch_ns``, as the node publishes them."""
-    import numpy as np
     values = weather_at(weather, np.datetime64(int(epoch_ns), 'ns'))
     readings = {field: float(values[field][0]) for field in TOPICS}
     readings['wind_speed_m_s'] *= gust_factor
