@@ -153,6 +153,18 @@ def _source(path, meta):
     return f'{os.path.basename(path)} ({station})' if station else os.path.basename(path)
 
 
+def site_distance_deg(site, other):
+    """Great-circle angle between two places with ``latitude_deg``/``longitude_deg`` [deg].
+
+    E.g. a facade's :class:`~flectofold_model.environment.Site` and a :class:`Weather`'s
+    station.
+    """
+    a, b = np.radians([site.latitude_deg, other.latitude_deg])
+    d = np.radians(other.longitude_deg - site.longitude_deg)
+    cosine = np.sin(a) * np.sin(b) + np.cos(a) * np.cos(b) * np.cos(d)
+    return float(np.degrees(np.arccos(np.clip(cosine, -1.0, 1.0))))
+
+
 def into_reference_year(times_utc):
     """Map UTC times into :data:`REFERENCE_YEAR` keeping their offset from their year's start.
 

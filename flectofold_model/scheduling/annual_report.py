@@ -64,7 +64,7 @@ import numpy as np
 
 from flectofold_model.environment.sun import Site, solar_position
 from flectofold_model.environment.weather import (into_reference_year, REFERENCE_YEAR,
-                                                  Weather, weather_at)
+                                                  site_distance_deg, Weather, weather_at)
 from flectofold_model.scheduling.day_report import _interpolate, CANDIDATE_CLOSURES
 from flectofold_model.scheduling.facade_schedule import (full_close_air_nl,
                                                          representative_panel,
@@ -309,7 +309,7 @@ def annual_report(facade, weather, first_date=None, last_date=None, step_min=60,
         cycle_budget_per_year=parameters.daily_move_cap * DAYS_PER_YEAR,
         threshold_w_m2=(float(threshold_on_w_m2), float(threshold_off_w_m2)),
         months=np.bincount(context.months, minlength=12) > 0,
-        site_offset_deg=_great_circle_deg(facade.site, site), strategies=tuple(strategies))
+        site_offset_deg=site_distance_deg(facade.site, site), strategies=tuple(strategies))
 
 
 @dataclass(frozen=True)
@@ -545,13 +545,6 @@ def _diffuse_on_panels(facade, sampled):
     up = facade.panel_to_enu[:, 2, 2]
     return (sampled['dhi_w_m2'][:, None] * (1 + up) / 2
             + GROUND_ALBEDO * sampled['ghi_w_m2'][:, None] * (1 - up) / 2)
-
-
-def _great_circle_deg(site, other):
-    a, b = np.radians([site.latitude_deg, other.latitude_deg])
-    d = np.radians(other.longitude_deg - site.longitude_deg)
-    cosine = np.sin(a) * np.sin(b) + np.cos(a) * np.cos(b) * np.cos(d)
-    return float(np.degrees(np.arccos(np.clip(cosine, -1.0, 1.0))))
 
 
 def plot(report, path):

@@ -20,6 +20,7 @@ from rclpy.clock import Clock, ClockType
 from rclpy.parameter import Parameter
 from rclpy.utilities import remove_ros_args
 
+from flectofold_model.environment import site_distance_deg
 from flectofold_model.facade import DEFAULT_FACADE, load_facade
 from flectofold_ros import contract, diagnostics
 from flectofold_ros.bringup.fault_script import load_fault_script
@@ -32,8 +33,7 @@ from flectofold_ros.nodes.coordinator import CoordinatorNode
 from flectofold_ros.nodes.panel import MAX_CALL_S, start_panels
 from flectofold_ros.nodes.panel_group import group_slice
 from flectofold_ros.nodes.sun_position import SunPositionNode
-from flectofold_ros.nodes.weather import (site_distance_deg, WEATHER_SITE_TOLERANCE_DEG,
-                                          WeatherNode)
+from flectofold_ros.nodes.weather import WEATHER_SITE_TOLERANCE_DEG, WeatherNode
 from flectofold_ros.recording.bag_segments import check_bag
 from flectofold_ros.runner import Program, run_nodes, stop_requested
 
@@ -245,7 +245,7 @@ class Bringup(Program):
 
     def _weather_node(self, path):
         node = WeatherNode(parameter_overrides=parameters(self.plan.weather_parameters(path)))
-        away_deg = site_distance_deg(node.weather, self.sun.site)
+        away_deg = site_distance_deg(self.sun.site, node.weather)
         if away_deg > WEATHER_SITE_TOLERANCE_DEG:
             print(f'facade: warning: the weather file {node.weather.source} is for a site '
                   f'{away_deg:.1f} deg away from the facade; the sun is still computed for the '

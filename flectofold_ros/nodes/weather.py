@@ -8,7 +8,6 @@ and diffuse irradiance, wind direction and air temperature. With ``use_sim_time`
 convention and the date mapping: ``msg_docs/weather.md``.
 """
 
-import math
 import sys
 
 import numpy as np
@@ -98,15 +97,6 @@ def readings_at(weather, epoch_ns, gust_factor=1.0):
     readings = {field: float(values[field][0]) for field in TOPICS}
     readings['wind_speed_m_s'] *= gust_factor
     return readings
-
-
-def site_distance_deg(weather, site):
-    """Great-circle angle between a weather file's station and a facade ``site`` [deg]."""
-    lat1, lat2 = math.radians(weather.latitude_deg), math.radians(site.latitude_deg)
-    dlon = math.radians(weather.longitude_deg - site.longitude_deg)
-    cosine = (math.sin(lat1) * math.sin(lat2)
-              + math.cos(lat1) * math.cos(lat2) * math.cos(dlon))
-    return math.degrees(math.acos(max(-1.0, min(1.0, cosine))))
 
 
 def main(args=None):

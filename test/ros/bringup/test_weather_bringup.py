@@ -15,9 +15,9 @@ import pytest
 from ros_graph import BIN, domain_for, Graph
 from rosbags.highlevel import AnyReader
 
-from flectofold_model.environment import read_weather, Site
+from flectofold_model.environment import read_weather, Site, site_distance_deg
 from flectofold_ros import contract, panel_states
-from flectofold_ros.nodes.weather import readings_at, site_distance_deg
+from flectofold_ros.nodes.weather import readings_at
 
 pytestmark = pytest.mark.graph
 
@@ -82,9 +82,9 @@ def test_the_node_plays_the_file_s_hours_and_measures_the_site(weather_day):
         2026, 6, 21, 11, 30, tzinfo=datetime.timezone.utc).timestamp()) * 10**9)
     assert noon['dni_w_m2'] == pytest.approx(960.0)  # the row of hour 13, at its middle
     assert noon['wind_direction_rad'] == pytest.approx(np.radians(200.0))
-    assert site_distance_deg(weather, Site(48.78, 9.18, 245.0)) == pytest.approx(0.055,
+    assert site_distance_deg(Site(48.78, 9.18, 245.0), weather) == pytest.approx(0.055,
                                                                                  abs=0.005)
-    assert site_distance_deg(weather, Site(25.2, 55.3, 0.0)) > 40.0
+    assert site_distance_deg(Site(25.2, 55.3, 0.0), weather) > 40.0
 
 
 def test_a_bad_weather_file_is_refused_with_its_reason(tmp_path):
