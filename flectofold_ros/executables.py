@@ -64,6 +64,8 @@ def run(name, args=None):
             if stop.requested:
                 return stopped_code
             raise
+        finally:
+            stop.leaving()
 
 
 def _entry_point(name):

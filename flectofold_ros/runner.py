@@ -11,7 +11,8 @@ Policy, the same for every executable:
   the program closes. Either way the exit is clean: no traceback, no ``[FATAL]`` line. While
   it closes (a recorder finishing its bag, a bringup waiting for its children) further
   signals are ignored, so a second Ctrl-C, or the same one forwarded by a parent, cannot cut
-  the close short. SIGKILL remains the way to stop a process at once.
+  the close short; they stay ignored once the work is done, through the interpreter's exit.
+  SIGKILL remains the way to stop a process at once.
 * Exit code 0 when a node's work is done or it was asked to stop; a program may choose
   another (the bringup exits 130 when its day was interrupted).
 
@@ -53,6 +54,7 @@ class StopSignals:
         self.received = []
         self._phase = 'starting'
         self._previous = {}
+        self._restore = True
 
     def __enter__(self):
         self._previous_unraisable_hook = sys.unraisablehook
@@ -65,7 +67,7 @@ class StopSignals:
 
     def __exit__(self, *exception):
         for number, handler in self._previous.items():
-            signal.signal(number, handler)
+            signal.signal(number, handler if self._restore else signal.SIG_IGN)
         sys.unraisablehook = self._previous_unraisable_hook
         return False
 
@@ -93,6 +95,17 @@ class StopSignals:
     def closing(self):
         """Mark the program closing: from now on signals are ignored."""
         self._phase = 'closing'
+
+    def leaving(self):
+        """Mark the process ending: signals stay ignored after the context, to the exit.
+
+        Without it, a signal in the second or so between the end of ``main`` and the end of
+        the process (the interpreter unloading its modules) meets the default disposition,
+        restored by Python's own teardown, and kills the process with -SIGINT after its work
+        was done and reported.
+        """
+        self._phase = 'closing'
+        self._restore = False
 
 
 _installed = None

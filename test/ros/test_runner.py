@@ -128,3 +128,25 @@ def test_an_import_error_without_a_signal_is_not_hidden(monkeypatch):
     monkeypatch.setattr(importlib, 'import_module', importing)
     with pytest.raises(ImportError, match='no such module'):
         executables.run('fold_table', [])
+
+
+LATE_SIGNALS = """
+import os, signal, sys, time
+sys.path.insert(0, sys.argv[1])
+from flectofold_ros import executables
+executables.EXECUTABLES['finished'] = ('finished_module', 130)
+code = executables.run('finished', [])
+os.kill(os.getpid(), signal.SIGINT)  # Ctrl-C just after the work was done and reported
+os.kill(os.getpid(), signal.SIGTERM)
+time.sleep(0.1)
+sys.exit(code)
+"""
+
+
+def test_a_signal_after_the_work_is_done_cannot_kill_the_process_on_its_way_out(tmp_path):
+    import subprocess
+    import sys
+    (tmp_path / 'finished_module.py').write_text('def main(args=None):\n    return 0\n')
+    run = subprocess.run([sys.executable, '-c', LATE_SIGNALS, str(tmp_path)],
+                         capture_output=True, text=True, timeout=60)
+    assert run.returncode == 0 and 'Traceback' not in run.stderr, run.stderr
