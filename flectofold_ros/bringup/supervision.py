@@ -202,7 +202,7 @@ class Supervisor:
     # -- the end ----------------------------------------------------------------------------
 
     def stop(self, timeout_s, panels):
-        """SIGINT the running children with (or without) panels, wait, then SIGKILL."""
+        """SIGTERM the running children with (or without) panels, wait, then SIGKILL."""
         self.stopping = True
         stop_processes(self.processes(panels), timeout_s)
 
@@ -223,10 +223,16 @@ class Supervisor:
 
 
 def stop_processes(processes, timeout_s):
-    """SIGINT every process that still runs (a terminal may have sent it already), then wait."""
+    """SIGTERM every process that still runs (a terminal may have sent SIGINT), then wait.
+
+    SIGTERM, which every executable handles as it does SIGINT, and not SIGINT: a bringup
+    started in the background by a shell, or under ``nohup``, hands its children SIGINT
+    ignored, and a recorder that never hears the stop is SIGKILLed at the deadline with its
+    bag unfinished.
+    """
     for process in processes:
         if process.poll() is None:
-            process.send_signal(signal.SIGINT)
+            process.send_signal(signal.SIGTERM)
     deadline = time.monotonic() + timeout_s
     for process in processes:
         try:

@@ -32,15 +32,19 @@ class Graph:
         self.executor.add_node(self.node)
         self.processes = []
 
-    def start(self, executable, *arguments, group=False):
+    def start(self, executable, *arguments, group=False, sigint_ignored=False):
         """Start an installed executable of the package on this domain.
 
         ``group``: as the leader of a new process group, which :meth:`signal_group` reaches
-        whole, as a terminal's Ctrl-C does.
+        whole, as a terminal's Ctrl-C does. ``sigint_ignored``: with SIGINT ignored, as a
+        shell starts a background job (``&``) and as ``nohup`` does; children inherit it.
         """
+        def ignore_sigint():
+            signal.signal(signal.SIGINT, signal.SIG_IGN)
         process = subprocess.Popen([str(BIN / executable), *arguments], env=self.env,
                                    stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
-                                   start_new_session=group)
+                                   start_new_session=group,
+                                   preexec_fn=ignore_sigint if sigint_ignored else None)
         process.flectofold_group = group
         self.processes.append(process)
         return process

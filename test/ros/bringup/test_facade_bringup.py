@@ -102,6 +102,28 @@ def test_ctrl_c_to_the_bringup_alone_stops_its_children_too(small_facade_file, t
     bag_is_complete((tmp_path / 'out' / 'latest').resolve() / 'bag')
 
 
+def test_started_in_the_background_with_sigint_ignored_its_day_ends_with_whole_outputs(
+        small_facade_file, tmp_path):
+    """A shell's ``&`` and ``nohup`` start the bringup, and so its children, with SIGINT ignored.
+
+    At the end of the day the bringup stops its recorder with SIGTERM, which still reaches it:
+    the bag is finished, not killed at the deadline.
+    """
+    graph = Graph(domain_for(9))
+    try:
+        bringup = graph.start('facade', '--facade', str(small_facade_file), '--start', '11:00',
+                              '--end', '11:10', '--speedup', '120', '--panel-processes', '1',
+                              '--record', '--rerun', 'none', '--out', str(tmp_path / 'out'),
+                              sigint_ignored=True)
+        output, _ = bringup.communicate(timeout=240)
+    finally:
+        graph.close()
+    assert bringup.returncode == 0 and 'Traceback' not in output, output
+    assert ': complete,' in output and 'INCOMPLETE' not in output, output
+    assert not children_of(small_facade_file)
+    bag_is_complete((tmp_path / 'out' / 'latest').resolve() / 'bag')
+
+
 @pytest.mark.parametrize('arguments, message', [
     (['--speedup', '0'], '--speedup'), (['--end', '03:00'], '--end'),
     (['--date', '2026-13-01'], '--date'), (['--panel-processes', '9'], '--panel-processes'),
