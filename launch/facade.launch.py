@@ -10,7 +10,9 @@ node in its own process under ``ros2 launch``. The actions are generated, when t
 runs, from the facade description (``facade_file``, empty for the embedded 6 x 6
 demonstrator): the sun node gets the site, and the panels are split over ``panel_processes``
 ``panel_group --group K/N`` processes of the facade's panel ids. The sun node is the clock
-(mode simulated); the coordinator and the panels run on ``use_sim_time``.
+(mode simulated); the coordinator and the panels run on ``use_sim_time``. The sun node holds
+the clock at the start until every panel reports and the coordinator and the observers
+listen (its ``start.*`` parameters), as the ``facade`` command holds it.
 
 The coordinator and the panel processes are respawned when they die (``RESPAWN``: after 2 s,
 at most 5 times), as the ``facade`` command restarts them; a respawned panel process starts
@@ -73,9 +75,14 @@ def launch_setup(context, *args, **kwargs):
                         least_processes=1)
     except PlanError as error:
         raise PlanError(f'facade.launch.py: {error}') from None
+    observers = _observers(context, plan)
+    # The day starts when every panel reports and the coordinator and the observers listen
+    # to the sun, as the facade command starts it: else a sped-up day runs ahead of them.
+    sun = plan.sun_parameters(wait_for_panels=len(facade),
+                              wait_for_sun_listeners=1 + len(observers))
     actions = [
         Node(package=PACKAGE, executable='sun_position_node', name=contract.SUN_POSITION_NODE,
-             output='screen', parameters=[plan.sun_parameters()]),
+             output='screen', parameters=[sun]),
         Node(package=PACKAGE, executable='coordinator_node', name=contract.COORDINATOR_NODE,
              namespace=contract.FACADE_NODE_NAMESPACE, output='screen',
              parameters=[plan.coordinator_parameters()], **RESPAWN),
@@ -91,7 +98,7 @@ def launch_setup(context, *args, **kwargs):
         actions.append(Node(package=PACKAGE, executable='weather_node',
                             name=contract.WEATHER_NODE, output='screen',
                             parameters=[plan.weather_parameters(weather_file)], **RESPAWN))
-    return actions + _observers(context, plan)
+    return actions + observers
 
 
 def _observers(context, plan):

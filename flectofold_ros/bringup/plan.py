@@ -88,11 +88,18 @@ class DayPlan:
 
     # -- node parameters (plain values, as launch_ros and rclpy's Parameter both take) -------
 
-    def sun_parameters(self):
+    def sun_parameters(self, wait_for_panels=0, wait_for_sun_listeners=0):
+        """Return the sun node's parameters; ``wait_for_*``: hold the start for the graph.
+
+        The ``facade`` command holds the clock itself (the sun node is in its process); under
+        ``ros2 launch`` the sun node is told what to wait for.
+        """
         latitude, longitude, elevation = self.site
         return {'latitude_deg': latitude, 'longitude_deg': longitude, 'elevation_m': elevation,
                 'mode': 'simulated', 'start_time': self.start_iso, 'end_time': self.end_iso,
-                'speedup': self.speedup, 'clock_rate_hz': CLOCK_RATE_HZ}
+                'speedup': self.speedup, 'clock_rate_hz': CLOCK_RATE_HZ,
+                'start.wait_for_panels': wait_for_panels,
+                'start.wait_for_sun_listeners': wait_for_sun_listeners}
 
     def weather_parameters(self, weather_file):
         return {'use_sim_time': True, 'weather_file': os.path.abspath(weather_file)}

@@ -17,9 +17,9 @@ from rosgraph_msgs.msg import Clock as ClockMessage
 
 from flectofold_model.environment import (epoch_from_iso, SimulatedClock, Site, sun_vector_enu,
                                           SunEphemeris)
-from flectofold_ros import contract
-from flectofold_ros.interfaces import publisher
-from flectofold_ros.parameters import choice, declare_all, double, string
+from flectofold_ros import contract, panel_states
+from flectofold_ros.interfaces import publisher, subscription
+from flectofold_ros.parameters import choice, declare_all, double, integer, string
 from flectofold_ros.runner import Program, run_nodes
 
 MODES = ('wall', 'simulated')
@@ -36,6 +36,9 @@ _SIM_TIME_REFUSED = ('use_sim_time must be false in mode simulated: the node pub
                      'itself, from the steady clock')
 _ISO = 'ISO 8601 with a UTC offset, e.g. 2026-06-21T04:00:00+02:00'
 USAGE = 'sun_position_node [--ros-args -p name:=value ...]'
+#: Once the graph is ready, the publishers in other processes still have to match the
+#: subscriptions it shows: the held clock starts this much later [s of wall time].
+START_SETTLE_S = 1.0
 
 #: name -> Spec.
 PARAMETERS = {
@@ -59,6 +62,15 @@ PARAMETERS = {
         'seconds in mode wall', 0.01, 3600.0, read_only=False),
     'frame_id': string(contract.SITE_FRAME, 'header.frame_id of the sun vector: the site ENU '
                        'frame (x east, y north, z up)', read_only=False),
+    'start.wait_for_panels': integer(
+        0, 'Mode simulated: hold the clock at start_time until this many distinct panels have '
+        'published a state on /facade/panel_states (0: start at once)', 0, 9999),
+    'start.wait_for_sun_listeners': integer(
+        0, 'Mode simulated: hold the clock at start_time until /facade/sun has this many '
+        'subscribers (0: start at once)', 0, 1000),
+    'start.timeout_s': double(
+        120.0, 'Mode simulated: start the day anyway after holding this long for the start.* '
+        'conditions [s, wall clock]', 1.0, 3600.0),
 }
 
 
@@ -91,6 +103,7 @@ class SunPositionNode(Node):
         self._finished = False
         self._sim_epoch_s = None
         self._held = False
+        self._gate = None
         if self.mode == 'simulated':
             self._start_simulated()
         else:
@@ -179,6 +192,65 @@ class SunPositionNode(Node):
         self._sim_epoch_s = self.simulated_clock.start_epoch_s
         self._timer = self.create_timer(1.0 / self._value('clock_rate_hz'), self._on_clock_tick,
                                         clock=self._steady)
+        self._start_gate()
+
+    # -- holding the start until the graph is ready (mode simulated) -------------------------
+
+    def _start_gate(self):
+        """Hold the clock at start_time while the ``start.*`` conditions are not met."""
+        panels, listeners = (self._value(f'start.{name}')
+                             for name in ('wait_for_panels', 'wait_for_sun_listeners'))
+        if not (panels or listeners):
+            return
+        self._gate = {'panels': panels, 'listeners': listeners, 'heard': set(),
+                      'since': self._steady.now(), 'ready': None,
+                      'timeout_s': self._value('start.timeout_s')}
+        self._gate['subscription'] = subscription(self, contract.PANEL_STATES,
+                                                  self._on_panel_states, contract.OBSERVER) \
+            if panels else None
+        self.get_logger().info(
+            f'holding the clock at {self._value("start_time")} until {panels} panels report '
+            f'and {listeners} nodes listen to {contract.SUN.name} (at most '
+            f'{self._gate["timeout_s"]:g} s)')
+
+    def _on_panel_states(self, message):
+        try:
+            table = panel_states.unpack(message)
+        except ValueError:
+            return  # not the contract's layout: counts for nothing
+        if self._gate is not None:
+            self._gate['heard'].update(panel_states.panel_ids(table))
+
+    def _check_gate(self, now):
+        gate = self._gate
+        waited_s = (now - gate['since']).nanoseconds / NS_PER_S
+        if gate['ready'] is None and self._graph_ready():
+            gate['ready'] = waited_s
+        if gate['ready'] is not None and waited_s - gate['ready'] >= START_SETTLE_S:
+            self._open_gate(f'the graph was ready after {gate["ready"]:.1f} s')
+        elif gate['ready'] is None and waited_s > gate['timeout_s']:
+            self.get_logger().warning(
+                f'starting the day without a ready graph after {waited_s:.0f} s: '
+                f'{len(gate["heard"])}/{gate["panels"]} panels reported, '
+                f'{self.count_subscribers(contract.SUN.name)}/{gate["listeners"]} nodes listen '
+                f'to {contract.SUN.name}')
+            self._open_gate('timed out')
+
+    def _graph_ready(self):
+        gate = self._gate
+        return (len(gate['heard']) >= gate['panels'] and
+                self.count_subscribers(contract.SUN.name) >= gate['listeners'])
+
+    def _open_gate(self, why):
+        if self._gate['subscription'] is not None:
+            self.destroy_subscription(self._gate['subscription'])
+        self._gate = None
+        self.get_logger().info(f'the simulated day starts: {why}')
+
+    @property
+    def waiting_for_graph(self):
+        """Whether the clock is held at the start for the ``start.*`` conditions."""
+        return self._gate is not None
 
     def _on_clock_tick(self):
         now = self._steady.now()
@@ -186,9 +258,11 @@ class SunPositionNode(Node):
             # A starved process (a long callback beside this timer) slows simulated time
             # down rather than leaping it ahead of the nodes it drives.
             tick_s = (now - self._last_tick).nanoseconds / NS_PER_S
-            if not self._held:
+            if not (self._held or self._gate is not None):
                 self._elapsed_s += min(tick_s, self._longest_tick_s)
         self._last_tick = now
+        if self._gate is not None:
+            self._check_gate(now)
         elapsed_s = self._elapsed_s
         self._sim_epoch_s = self.simulated_clock.sim_epoch_s(elapsed_s)
         sim_ns = _to_ns(self._sim_epoch_s)

@@ -159,7 +159,11 @@ def _check_bringup(nodes, facade, groups, facade_file):
     assert sun_parameters['latitude_deg'] == pytest.approx(facade.site.latitude_deg)
     assert sun_parameters['longitude_deg'] == pytest.approx(facade.site.longitude_deg)
     assert sun_parameters['mode'] == 'simulated'
-    assert all(type(value) in (float, str) for value in sun_parameters.values())
+    assert all(type(value) in (float, str, int) for value in sun_parameters.values())
+    # the day starts when every panel reports and the coordinator (+ observers) listen
+    observers = len(_by_executable(nodes, 'bag_recorder') + _by_executable(nodes, 'rerun_bridge'))
+    assert sun_parameters['start.wait_for_panels'] == len(facade)
+    assert sun_parameters['start.wait_for_sun_listeners'] == 1 + observers
     offset = f'{int(facade.utc_offset_h):+03d}:00'
     assert sun_parameters['start_time'] == f'2026-06-21T12:00:00{offset}'
     assert sun_parameters['end_time'] == f'2026-06-21T15:00:00{offset}'
@@ -257,6 +261,8 @@ def test_the_recorder_and_the_bridge_on_request(launch_module, tmp_path):
     assert _parameters(bridge) == {'use_sim_time': True, 'viewer': 'none', 'facade_file': '',
                                    'rrd_path': str(tmp_path / 'day.rrd')}
     assert len(_nodes(launch_module)) == 4  # neither by default
+    (sun,) = _by_executable(nodes, 'sun_position_node')
+    assert _parameters(sun)['start.wait_for_sun_listeners'] == 3  # coordinator and both
 
 
 def test_the_weather_node_on_request_follows_the_clock_and_respawns(launch_module, tmp_path):

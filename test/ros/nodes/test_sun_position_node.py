@@ -222,3 +222,41 @@ def test_executable_refuses_bad_parameters_without_a_traceback(argument, named):
     output = result.stdout + result.stderr
     assert result.returncode == 2, output
     assert named in output and 'Traceback' not in output, output
+
+
+def _panel_states_message(panel_ids):
+    from sensor_msgs.msg import PointCloud2, PointField
+    from flectofold_ros import panel_states
+    table = panel_states.new_table(len(panel_ids))
+    table['row'], table['column'] = panel_states.id_numbers(panel_ids)
+    return panel_states.fill_message(PointCloud2(), table, Time(sec=1), PointField)
+
+
+def _clock_moved(probe):
+    return any(clock_ns > START_NS for _, clock_ns in probe.clock)
+
+
+def test_the_start_is_held_until_the_panels_report_and_the_sun_has_listeners(probe):
+    """As under ros2 launch: the day starts when the graph is up (the probe listens to sun)."""
+    node = probe.start(**SHORT_DAY, **{'start.wait_for_panels': 2,
+                                       'start.wait_for_sun_listeners': 1})
+    states = publisher(probe.node, contract.PANEL_STATES)
+    probe.spin_for(1.5)
+    assert probe.clock and not _clock_moved(probe) and node.waiting_for_graph
+    states.publish(_panel_states_message(['r00c00']))
+    states.publish(_panel_states_message(['r00c00']))  # the same panel again counts once
+    probe.spin_for(1.5)
+    assert not _clock_moved(probe)
+    states.publish(_panel_states_message(['r00c01']))
+    assert probe.spin_until(lambda: _clock_moved(probe), 5.0)
+    assert not node.waiting_for_graph
+    assert any('the graph was ready' in log.msg for log in probe.logs)
+
+
+def test_a_graph_that_never_gets_ready_starts_the_day_after_the_timeout_with_a_warning(probe):
+    probe.start(**SHORT_DAY, **{'start.wait_for_panels': 3, 'start.timeout_s': 1.0})
+    probe.spin_for(0.5)
+    assert not _clock_moved(probe)
+    assert probe.spin_until(lambda: _clock_moved(probe), 5.0)
+    assert any('without a ready graph' in log.msg and '0/3 panels' in log.msg
+               for log in probe.logs)
