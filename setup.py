@@ -46,6 +46,7 @@ setup(
             'bag_recorder = flectofold_ros.executables:bag_recorder',
             'replay = flectofold_ros.executables:replay',
             'bag_reindex = flectofold_ros.executables:bag_reindex',
+            'facade_export = flectofold_ros.executables:facade_export',
         ],
     },
 )

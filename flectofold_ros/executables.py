@@ -30,6 +30,7 @@ EXECUTABLES = {
     'bag_recorder': ('flectofold_ros.nodes.bag_recorder', 0),
     'replay': ('flectofold_ros.commands.replay', 0),
     'bag_reindex': ('flectofold_ros.commands.bag_reindex', 130),
+    'facade_export': ('flectofold_ros.commands.facade_export', 130),
 }
 
 
@@ -89,3 +90,4 @@ rerun_bridge = _entry_point('rerun_bridge')
 bag_recorder = _entry_point('bag_recorder')
 replay = _entry_point('replay')
 bag_reindex = _entry_point('bag_reindex')
+facade_export = _entry_point('facade_export')

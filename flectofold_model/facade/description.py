@@ -186,6 +186,32 @@ def load_facade(path=DEFAULT_FACADE):
     return _build_document(document, Path(path).parent)
 
 
+def surface_quads(path=DEFAULT_FACADE):
+    """Return the quad mesh of a quad facade's surface, one quad per patch, facade frame [m].
+
+    The mesh that ``surface: {type: obj}`` reads back to the same patches: for a parametric
+    surface its ``grid`` cells with their corners on the surface
+    (:meth:`~.surfaces.ParametricSurface.grid_quads`; on a curved surface the quad's centre,
+    the mean of its corners, lies off the surface by the cell's sag); for an OBJ surface the
+    file's own quads. Returns vertices (M, 3) and quads (Q, 4) of vertex indices. The
+    description is loaded and checked first (:func:`load_facade`); a hexagon facade raises
+    :class:`FacadeError` (its cells are not quads).
+    """
+    path = facade_path(path)
+    load_facade(path)
+    document = read_yaml(path)
+    if _panel_kind(document['panel']) != 'quad':
+        raise FacadeError('surface quads: a hexagon facade is tessellated into hexagonal '
+                          'cells, not quads')
+    surface = document['surface']
+    kind = _surface_kind(surface)
+    if kind == 'obj':
+        return _build('surface.path', lambda: surfaces.read_obj_quads(
+            Path(path).parent / surface['path']))
+    grid = document['grid']
+    return _parametric(surface, kind).grid_quads(grid['rows'], grid['columns'])
+
+
 def build_facade(text, base_directory='.'):
     """Validate and build a facade from YAML text (OBJ paths resolve from base_directory)."""
     try:

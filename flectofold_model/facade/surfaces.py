@@ -98,6 +98,20 @@ class ParametricSurface:
             curvature_x_per_m=np.where(along_v, curvature_v, curvature_u),
             curvature_y_per_m=np.where(along_v, curvature_u, curvature_v))
 
+    def grid_quads(self, rows, columns):
+        """Return the cell grid of :meth:`tessellate` as a quad mesh on the surface (facade frame).
+
+        Returns vertices ``((rows + 1) (columns + 1), 3)`` [m], the grid nodes row by row from
+        the bottom left, and quads ``(rows columns, 4)``, counter-clockwise seen from outside,
+        in :meth:`tessellate`'s patch order. Neighbouring quads share their corner vertices.
+        """
+        u = np.linspace(-self.width_m / 2, self.width_m / 2, columns + 1)
+        v = np.linspace(-self.height_m / 2, self.height_m / 2, rows + 1)
+        vertices = self.point(*np.meshgrid(u, v, indexing='xy')).reshape(-1, 3)
+        node = np.arange((rows + 1) * (columns + 1)).reshape(rows + 1, columns + 1)
+        quads = np.stack([node[:-1, :-1], node[:-1, 1:], node[1:, 1:], node[1:, :-1]], axis=-1)
+        return vertices, quads.reshape(-1, 4)
+
     def _frame_vectors(self, u, v, step=1e-4):
         d_u = (self.point(u + step, v) - self.point(u - step, v)) / (2 * step)
         d_v = (self.point(u, v + step) - self.point(u, v - step)) / (2 * step)

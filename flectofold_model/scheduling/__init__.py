@@ -3,7 +3,8 @@
 - :mod:`.scheduler`: the per-period decision under dwell, deadband, rate limit, daily cap, air
   budget, storm latch and DNI gate (:class:`Scheduler`);
 - :mod:`.facade_schedule`: sun vector -> commanded closure per panel of a facade;
-- :mod:`.day_report`: a facade's day, what its schedule achieved, against two baselines.
+- :mod:`.day_report`: a facade's day, what its schedule achieved, against two baselines;
+- :mod:`.scheduled_closure`: the closure the schedule commands at one instant of a clear day.
 """
 
 from flectofold_model.scheduling.day_report import DayReport, simulate_day

@@ -98,7 +98,7 @@ def simulate_day(facade, date_iso, step_s=300.0, samples=16):
     """
     epochs = sun.day_epochs(date_iso, facade.utc_offset_h, step_s)
     position = sun.solar_position(epochs, facade.site)
-    dni = _clear_sky_dni(epochs, facade.site)
+    dni = clear_sky_dni(epochs, facade.site)
     sun_panel = facade.sun_in_panel_frames(position.enu)
     sunlit = (sun_panel[..., 2] > 0) & position.above_horizon[:, None]
     fold = fold_model_of(facade.panels)
@@ -132,7 +132,11 @@ def simulate_day(facade, date_iso, step_s=300.0, samples=16):
                      always_closed=baselines[1])
 
 
-def _clear_sky_dni(epochs, site):
+def clear_sky_dni(epochs, site):
+    """Clear-sky direct normal irradiance [W/m2] at POSIX times (T,) [s]: pvlib's Ineichen.
+
+    With pvlib's bundled Linke turbidity data (monthly climatology, offline).
+    """
     import pandas as pd
     from pvlib.location import Location
     times = pd.to_datetime(epochs, unit='s', utc=True)

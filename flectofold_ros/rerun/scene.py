@@ -36,14 +36,12 @@ from dataclasses import dataclass
 import numpy as np
 import rerun as rr
 import rerun.blueprint as rrb
-from scipy.special import ellipe, ellipk
 
 from flectofold_model.actuation import ATMOSPHERIC_PRESSURE_PA
-from flectofold_model.kinematics import elastica
-from flectofold_model.kinematics.hexagon import hexagon_mesh, HexagonBatch, HexagonTopology
-from flectofold_model.kinematics.kinds import fold_model_of, panel_kind
-from flectofold_model.kinematics.mesh import DEFAULT_TOPOLOGY, fold_mesh, MeshTopology
-from flectofold_model.kinematics.reflection import sag_for_apex_fold_angle
+# The facade's folded mesh in the site frame has one implementation, shared with the CAD
+# export; its resolution rule and k_from_sag are re-exported here for the scene's callers.
+from flectofold_model.facade.folded_mesh import (  # noqa: F401
+    facade_topology, FACADE_VERTEX_BUDGET, FacadeMesher, k_from_sag)
 from flectofold_ros import contract, panel_states
 
 TIMELINE = 'ros_time'
@@ -72,73 +70,6 @@ SUN_ARROW_M = 3.0
 #: states carry positions in float32 (about 1 um at 10 m); a state farther off belongs to
 #: another facade.
 PLACEMENT_TOLERANCE_M = 0.01
-#: Vertices of the whole facade mesh that :func:`facade_topology` stays within.
-FACADE_VERTEX_BUDGET = 60_000
-
-
-def _sag_ratio(k):
-    """``sag / L = k / K(k^2)`` of the pinned elastica (:func:`elastica.sag_from_k` / L)."""
-    return k / ellipk(np.square(k))
-
-
-_K_TABLE = np.linspace(0.0, elastica.K_MAX, 1025)
-_RATIO_TABLE = _sag_ratio(_K_TABLE)
-
-
-def k_from_sag(sag_m, length_m):
-    """:func:`elastica.k_from_sag` without its general root finder, for the per-flush path.
-
-    ``sag / L`` depends on ``k`` alone, so a table of it gives ``k`` to about 1e-7, and two
-    Newton steps on the closed form (derivative from ``dK/dm = (E - (1 - m) K) / (2 m (1 -
-    m))``) take that to rounding. The root finder costs about 10 ms a call whatever the
-    panel count, this a few hundred microseconds for 1,000 panels; a test checks they agree.
-    """
-    ratio = np.clip(np.asarray(sag_m, dtype=float) / length_m, 0.0, _RATIO_TABLE[-1])
-    k = np.interp(ratio, _RATIO_TABLE, _K_TABLE)
-    for _ in range(2):
-        m = np.square(k)
-        big_k, big_e = ellipk(m), ellipe(m)
-        slope = 1.0 / big_k - (big_e - (1.0 - m) * big_k) / ((1.0 - m) * np.square(big_k))
-        k = np.clip(k - (k / big_k - ratio) / slope, 0.0, elastica.K_MAX)
-    return k
-
-
-def _outline(batch):
-    """Corners (N, C, 3) of each flat panel's outline in its frame, counter-clockwise."""
-    if isinstance(batch, HexagonBatch):
-        angle = np.radians(30.0 + 60.0 * np.arange(6))
-        unit = np.stack([np.cos(angle), np.sin(angle), np.zeros(6)], axis=-1)
-        return batch.circumradius_m[:, None, None] * unit
-    half = np.stack([batch.length_m / 2, batch.width_m / 2, np.zeros(len(batch))], -1)
-    signs = np.array([(-1, -1, 0), (1, -1, 0), (1, 1, 0), (-1, 1, 0)], dtype=float)
-    return half[:, None, :] * signs
-
-
-def facade_topology(panel_count, vertex_budget=FACADE_VERTEX_BUDGET, kind='quad'):
-    """Return the mesh topology for a facade of ``panel_count`` panels of ``kind``.
-
-    Every row of a mesh block is a straight segment (a generator of the mid-rib cylinder or its
-    mirror image) with one normal, so two columns per block give the same surface and shading
-    as any finer column count; only the stations along the mid-rib shape the fold. This takes
-    two columns per block and the most stations, odd (one at mid-span, the apex) and at most
-    the display default's 21, for which the whole facade has at most ``vertex_budget``
-    vertices, but at least 3. The demonstrator's 36 panels get 21 stations (126 vertices a
-    panel, the default mesh's shape); 1,000 panels get 9 (54 vertices, within 4 mm of the
-    fine mesh on a 1 m panel).
-
-    A hexagonal panel's rulings are straight too, on the cone and on each flap, so one ring
-    and two flap columns give the surface; this takes the most rulings per sector (even, at
-    most 12, at least 2) within the budget: 115 vertices a panel for 36 panels, 43 for 1,000.
-    """
-    if kind == 'hexagon':
-        rulings = 12
-        while rulings > 2 and panel_count * (9 * rulings + 7) > vertex_budget:
-            rulings -= 2
-        return HexagonTopology(rulings_per_sector=rulings, rings=1, flap_columns=2)
-    stations = DEFAULT_TOPOLOGY.stations
-    while stations > 3 and panel_count * 6 * stations > vertex_budget:
-        stations -= 2
-    return MeshTopology(stations=stations, midrib_columns=2, flap_columns=2)
 
 
 @dataclass
@@ -254,24 +185,14 @@ class FacadeScene:
         self.color_by, self.min_change_rad = color_by, float(min_change_rad)
         self.every_state = every_state
         count = len(facade)
-        self.model = fold_model_of(facade.panels)
-        self.kind = panel_kind(self.model.batch)
-        self.topology = topology or facade_topology(count, kind=self.kind)
+        self.mesher = FacadeMesher(facade, topology=topology)
+        self.model, self.kind = self.mesher.model, self.mesher.kind
+        self.topology = self.mesher.topology
         self.panel_ids = list(facade.panel_ids)
         self._lookup = panel_states.index_lookup(self.panel_ids)
-        self.positions_enu = facade.origin_m @ facade.facade_to_enu.T
+        self.positions_enu = self.mesher.positions_enu
         """(N, 3) panel origins in the site ENU frame [m]."""
-        self._rotation_t = np.ascontiguousarray(
-            np.transpose(facade.panel_to_enu, (0, 2, 1)), dtype=np.float32)
-        self._origin = self.positions_enu.astype(np.float32)[:, None, :]
-        self.angle_limits_rad = (self.model.open_fold_angle_rad,
-                                 self.model.closed_fold_angle_rad)
-        self._shape_for = (self._hexagon_shapes if self.kind == 'hexagon'
-                           else self._quad_shapes)
-        if self.kind == 'hexagon':
-            self._rise_table_m = self.model.shape_table()
-        else:
-            self._sag_limit_m = elastica.sag_from_k(elastica.K_MAX, self.model.batch.length_m)
+        self.angle_limits_rad = self.mesher.angle_limits_rad
         # The panel state as the scene last applied it.
         self.seen = np.zeros(count, dtype=bool)
         self.stamp_ns = np.zeros(count, dtype=np.int64)
@@ -283,7 +204,8 @@ class FacadeScene:
         self._touched = np.zeros(count, dtype=bool)
         # What the recording shows: every panel meshed, at the open state until it is seen.
         self.logged_angle_rad = np.full(count, np.nan)
-        self.vertices, self.normals = self._world_mesh(np.arange(count), self.model.open_shape)
+        self.vertices, self.normals = self.mesher.world_mesh(np.arange(count),
+                                                             self.model.open_shape)
         self.logged_colour = np.zeros(count, dtype=np.uint32)
         self._positions_logged = False
         self._colours_logged = False
@@ -330,11 +252,8 @@ class FacadeScene:
         A quad panel's patch is its rectangle (C = 4 corners), a hexagonal panel's its hexagon
         (C = 6), each a fan of C - 2 triangles.
         """
-        corners = _outline(self.model.batch)
-        corners[..., 2] = -depth_m
-        world = np.einsum('nij,nkj->nki', self.facade.panel_to_enu, corners) \
-            + self.positions_enu[:, None, :]
-        count, size = corners.shape[:2]
+        world = self.mesher.outline_enu(depth_m)
+        count, size = world.shape[:2]
         fan = np.stack([np.zeros(size - 2, int), np.arange(1, size - 1), np.arange(2, size)], -1)
         triangles = (size * np.arange(count)[:, None, None] + fan).reshape(-1, 3)
         return world.reshape(-1, 3).astype(np.float32), triangles.astype(np.uint32)
@@ -463,11 +382,9 @@ class FacadeScene:
         fields = {}
         panels = np.flatnonzero(moved)
         if len(panels):
-            angle = np.clip(self.fold_angle_rad[panels], self.angle_limits_rad[0][panels],
-                            self.angle_limits_rad[1][panels])
-            batch = self._batch(panels)
-            vertices, normals = self._world_mesh(panels, self._shape_for(panels, angle, batch),
-                                                 batch)
+            batch = self.mesher.batch(panels)
+            shape = self.mesher.shapes(panels, self.fold_angle_rad[panels], batch)
+            vertices, normals = self.mesher.world_mesh(panels, shape, batch)
             self.vertices[panels], self.normals[panels] = vertices, normals
             self.logged_angle_rad[panels] = self.fold_angle_rad[panels]
             self.counts.panels_remeshed += len(panels)
@@ -487,34 +404,6 @@ class FacadeScene:
             self._at(stamp_ns)
             self.recording.log(PANELS, rr.Mesh3D.from_fields(**fields))
         return len(panels)
-
-    def _batch(self, panels):
-        return self.model.batch if len(panels) == len(self) else self.model.batch.take(panels)
-
-    def _quad_shapes(self, panels, angle, batch):
-        """Return elastica moduli for fold angles (FoldModel's map), for these panels only."""
-        sag = np.minimum(sag_for_apex_fold_angle(batch, angle), self._sag_limit_m[panels])
-        return k_from_sag(sag, batch.length_m)
-
-    def _hexagon_shapes(self, panels, angle, batch):
-        """Centre rises for fold angles, interpolated in the model's table of these panels."""
-        opened, closed = self.angle_limits_rad[0][panels], self.angle_limits_rad[1][panels]
-        table = self._rise_table_m[panels]
-        position = np.clip((angle - opened) / (closed - opened), 0.0, 1.0) * (table.shape[1] - 1)
-        lower = np.minimum(position.astype(np.intp), table.shape[1] - 2)
-        rows = np.arange(len(panels))
-        low, high = table[rows, lower], table[rows, lower + 1]
-        return low + (position - lower) * (high - low)
-
-    def _world_mesh(self, panels, shape, batch=None):
-        """(M, V, 3) float32 world vertices and normals of ``panels`` at shape parameters."""
-        batch = self._batch(panels) if batch is None else batch
-        build = hexagon_mesh if isinstance(batch, HexagonBatch) else fold_mesh
-        mesh = build(batch, shape, topology=self.topology, dtype=np.float32)
-        rotation_t = self._rotation_t[panels]
-        vertices = np.matmul(mesh.vertices, rotation_t)
-        vertices += self._origin[panels]
-        return vertices, np.matmul(mesh.normals, rotation_t)
 
     def panel_colours(self):
         """Packed RGBA of every panel now: red on a fault, else closure or pressure on the ramp.
