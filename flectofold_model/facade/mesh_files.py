@@ -15,7 +15,8 @@ Frames and units, the same for every file written here:
 References
 ----------
 .. [1] The Khronos Group, "glTF 2.0 Specification", section 3.4 "Coordinate System and
-   Units": right-handed, +Y up, +Z forward (the front of an asset faces +Z), metres.
+   Units": right-handed, +Y up, +Z forward (the front of an asset faces +Z), metres
+   (``docs/references.md`` §10).
 """
 
 from pathlib import Path

@@ -29,7 +29,7 @@ FRAMES = """frames and units (metres everywhere):
 def main(args=None):
     from flectofold_ros.runner import run_command
     parser = argparse.ArgumentParser(
-        description=__doc__.splitlines()[0], epilog=FRAMES,
+        prog='facade_export', description=__doc__.splitlines()[0], epilog=FRAMES,
         formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument('--facade', default=None,
                         help='facade description YAML or embedded name (default: the 6x6 '

@@ -20,6 +20,7 @@ from std_msgs.msg import Float64
 
 from flectofold_model.actuation import ATMOSPHERIC_PRESSURE_PA
 from flectofold_model.facade.description import build_facade, DEFAULT_FACADE, load_facade
+from flectofold_model.facade.folded_mesh import FacadeMesher, folded_meshes
 from flectofold_model.kinematics import elastica
 from flectofold_model.kinematics.closure import FoldModel
 from flectofold_model.kinematics.mesh import DEFAULT_TOPOLOGY, fold_mesh
@@ -148,6 +149,17 @@ def test_the_facade_is_one_mesh_whose_vertices_match_the_model(tmp_path, facade)
     assert faces.shape == (len(facade) * len(scene.topology.faces), 3)
     assert faces.max() == len(facade) * scene.topology.vertex_count - 1
     assert scene.counts.meshes_logged == 4 and scene.counts.panels_remeshed == 4 * len(facade)
+
+
+def test_the_scene_shows_the_mesh_the_cad_export_writes(tmp_path, facade):
+    """One implementation: the recorded facade is the export's, panel by panel."""
+    scene, rrd = record_steps(tmp_path / 'day.rrd', facade, steps=2, min_change_rad=0.0)
+    (_, vertices), = rrd.meshes()[-1:]
+    shown = np.asarray(vertices).reshape(len(facade), scene.topology.vertex_count, 3)
+    mesher = FacadeMesher(facade, topology=scene.topology)
+    exported = folded_meshes(mesher, closure=closures_at(1, len(facade)), weld_vertices=False)
+    assert [mesh.panel_id for mesh in exported] == scene.panel_ids
+    np.testing.assert_allclose(shown, [mesh.vertices_m for mesh in exported], atol=1e-5)
 
 
 def test_the_mesh_resolution_keeps_the_fold_and_fits_the_facade(facade):
