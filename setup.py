@@ -43,6 +43,7 @@ setup(
             'coordinator_node = flectofold_ros.executables:coordinator_node',
             'facade = flectofold_ros.executables:facade',
             'rerun_bridge = flectofold_ros.executables:rerun_bridge',
+            'facade_markers = flectofold_ros.executables:facade_markers',
             'bag_recorder = flectofold_ros.executables:bag_recorder',
             'replay = flectofold_ros.executables:replay',
             'bag_reindex = flectofold_ros.executables:bag_reindex',

@@ -129,6 +129,10 @@ PANEL_STATES = Topic(f'{FACADE_NAMESPACE}/panel_states', 'sensor_msgs/msg/PointC
                      FACADE_STREAM)
 #: The facade-level state topics: what observers subscribe to.
 FACADE_STATE = (FACADE_JOINT_STATES, PANEL_STATES)
+#: The folded facade for RViz and Foxglove (``markers.md``), in :data:`SITE_FRAME`. Latched,
+#: so that a display started later gets the last message at once.
+MARKERS = Topic(f'{FACADE_NAMESPACE}/markers', 'visualization_msgs/msg/MarkerArray',
+                Qos(depth=1, latched=True))
 
 # -- each panel's topics and service ----------------------------------------------------------
 
@@ -182,6 +186,7 @@ SUN_POSITION_NODE = 'sun_position'
 WEATHER_NODE = 'weather'
 MONITOR_NODE = 'facade_monitor'
 RERUN_BRIDGE_NODE = 'rerun_bridge'
+MARKERS_NODE = 'facade_markers'
 RECORDER_NODE = 'bag_recorder'
 REPLAY_NODE = 'replay'
 FAULT_SCRIPT_NODE = 'fault_script'

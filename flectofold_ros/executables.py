@@ -27,6 +27,7 @@ EXECUTABLES = {
     'coordinator_node': ('flectofold_ros.nodes.coordinator', 0),
     'facade': ('flectofold_ros.bringup.cli', 130),
     'rerun_bridge': ('flectofold_ros.nodes.rerun_bridge', 0),
+    'facade_markers': ('flectofold_ros.nodes.facade_markers', 0),
     'bag_recorder': ('flectofold_ros.nodes.bag_recorder', 0),
     'replay': ('flectofold_ros.commands.replay', 0),
     'bag_reindex': ('flectofold_ros.commands.bag_reindex', 130),
@@ -87,6 +88,7 @@ weather_node = _entry_point('weather_node')
 coordinator_node = _entry_point('coordinator_node')
 facade = _entry_point('facade')
 rerun_bridge = _entry_point('rerun_bridge')
+facade_markers = _entry_point('facade_markers')
 bag_recorder = _entry_point('bag_recorder')
 replay = _entry_point('replay')
 bag_reindex = _entry_point('bag_reindex')

@@ -156,7 +156,8 @@ ROSDEP_KEYS = {
 }
 #: ROS packages whose Python module has the package's name.
 ROS_PACKAGES = {'rclpy', 'builtin_interfaces', 'rcl_interfaces', 'std_msgs', 'std_srvs',
-                'geometry_msgs', 'sensor_msgs', 'diagnostic_msgs', 'rosgraph_msgs', 'launch'}
+                'geometry_msgs', 'sensor_msgs', 'diagnostic_msgs', 'rosgraph_msgs',
+                'visualization_msgs', 'launch'}
 
 
 def test_package_xml_names_every_module_the_code_imports():

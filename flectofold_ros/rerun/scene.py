@@ -43,6 +43,9 @@ from flectofold_model.actuation import ATMOSPHERIC_PRESSURE_PA
 from flectofold_model.facade.folded_mesh import (  # noqa: F401
     facade_topology, FACADE_VERTEX_BUDGET, FacadeMesher, k_from_sag)
 from flectofold_ros import contract, panel_states
+# One colour scheme for every view of the facade; re-exported for the scene's callers.
+from flectofold_ros.colours import (  # noqa: F401
+    FAULT_RGBA, NO_STATE_RGBA, panel_colours, ramp_colour, ramp_colours, SURFACE_RGBA)
 
 TIMELINE = 'ros_time'
 COLOR_MODES = ('closure', 'pressure')
@@ -58,12 +61,6 @@ CLOSURE_MEAN = '/metrics/closure_mean'
 CLOSURE_BAND = ('mean', 'min', 'max')
 #: Gauge pressure at the dark end of the pressure colour ramp [Pa].
 PRESSURE_FULL_SCALE_PA = 12e3
-FAULT_RGBA = (215, 38, 38, 255)
-#: A panel with no state yet (or, coloured by pressure, no pressure reading).
-NO_STATE_RGBA = (128, 128, 128, 255)
-#: Open (0) to closed (1): sand to deep blue-green.
-_RAMP = np.array([[236, 226, 198], [122, 170, 160], [24, 78, 104]], dtype=float)
-_SURFACE_RGBA = (150, 150, 150, 90)
 _BAND_COLOURS = [(24, 78, 104, 255), (122, 170, 160, 255), (122, 170, 160, 255)]
 SUN_ARROW_M = 3.0
 #: How far a panel state's position may be from its panel's origin in the facade [m]: the
@@ -122,21 +119,6 @@ def facade_blueprint():
                 row_shares=[2, 2, 1]),
             column_shares=[3, 2]),
         collapse_panels=True)
-
-
-def ramp_colours(fractions):
-    """(N, 4) uint8 RGBA of fractions in [0, 1] on the open-to-closed ramp (clipped)."""
-    position = np.clip(np.asarray(fractions, dtype=float), 0.0, 1.0) * (len(_RAMP) - 1)
-    low = np.minimum(position.astype(int), len(_RAMP) - 2)
-    rgb = _RAMP[low] + (position - low)[..., None] * (_RAMP[low + 1] - _RAMP[low])
-    rgba = np.full(position.shape + (4,), 255, dtype=np.uint8)
-    rgba[..., :3] = np.round(rgb)
-    return rgba
-
-
-def ramp_colour(fraction):
-    """RGBA (uint8 tuple) of a fraction in [0, 1] on the open-to-closed ramp (clipped)."""
-    return tuple(int(c) for c in ramp_colours([float(fraction)])[0])
 
 
 def packed(rgba):
@@ -244,7 +226,7 @@ class FacadeScene:
                                              widths=[2.0, 1.0, 1.0]), static=True)
         vertices, triangles = self.surface_facets()
         rec.log(SURFACE, rr.Mesh3D(vertex_positions=vertices, triangle_indices=triangles,
-                                   albedo_factor=_SURFACE_RGBA), static=True)
+                                   albedo_factor=SURFACE_RGBA), static=True)
 
     def surface_facets(self, depth_m=0.05):
         """One facet per patch, ``depth_m`` behind the panels: (C N, 3) vertices and faces.
@@ -414,10 +396,7 @@ class FacadeScene:
             fraction, known = self.gauge_pa / PRESSURE_FULL_SCALE_PA, np.isfinite(self.gauge_pa)
         else:
             fraction, known = self.closure, np.ones(len(self), dtype=bool)
-        rgba = ramp_colours(np.where(known, fraction, 0.0))
-        rgba[~(known & self.seen)] = NO_STATE_RGBA
-        rgba[self.seen & (self.fault != 0)] = FAULT_RGBA
-        return packed(rgba)
+        return packed(panel_colours(fraction, self.seen, self.fault, known))
 
     def _flush_series(self, pending):
         """One row per distinct stamp: every panel's value, its last one if not in the row."""

@@ -181,8 +181,9 @@ def test_ros2_param_set_refuses_an_out_of_range_value_and_takes_a_good_one(ros2_
 def test_ros2_topic_pub_setpoints_move_the_panel(ros2_tools, panel):
     graph, latest = panel
     start = float(latest['r00c00']['closure'])
-    pub = ros2_tools.start(graph, 'topic', 'pub', '--rate', '1', '/facade/r00c00/setpoint',
-                           'std_msgs/msg/Float64', '{data: 0.8}')
+    setpoint = contract.SETPOINT.of('r00c00')
+    pub = ros2_tools.start(graph, 'topic', 'pub', '--rate', '1', setpoint.name,
+                           setpoint.msgtype, '{data: 0.8}')
     try:
         moved = graph.spin_until(lambda: latest['r00c00']['closure'] > start + 0.3, 90.0)
         tracked = float(latest['r00c00']['setpoint'])

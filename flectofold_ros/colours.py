@@ -1,0 +1,46 @@
+"""The facade's colours, the same in every view: Rerun, RViz and Foxglove markers, pictures.
+
+A panel is coloured by closure on one ramp, open (0) sand to closed (1) deep blue-green, red
+for a latched fault and grey before its first state (or, coloured by pressure, without a
+reading). Colours are uint8 RGBA.
+"""
+
+import numpy as np
+
+FAULT_RGBA = (215, 38, 38, 255)
+#: A panel with no state yet (or, coloured by pressure, no pressure reading).
+NO_STATE_RGBA = (128, 128, 128, 255)
+#: The facade's surface behind the panels: translucent grey.
+SURFACE_RGBA = (150, 150, 150, 90)
+#: The arrow toward the sun.
+SUN_RGBA = (255, 190, 40, 255)
+#: Open (0) to closed (1): sand to deep blue-green.
+_RAMP = np.array([[236, 226, 198], [122, 170, 160], [24, 78, 104]], dtype=float)
+
+
+def ramp_colours(fractions):
+    """(N, 4) uint8 RGBA of fractions in [0, 1] on the open-to-closed ramp (clipped)."""
+    position = np.clip(np.asarray(fractions, dtype=float), 0.0, 1.0) * (len(_RAMP) - 1)
+    low = np.minimum(position.astype(int), len(_RAMP) - 2)
+    rgb = _RAMP[low] + (position - low)[..., None] * (_RAMP[low + 1] - _RAMP[low])
+    rgba = np.full(position.shape + (4,), 255, dtype=np.uint8)
+    rgba[..., :3] = np.round(rgb)
+    return rgba
+
+
+def ramp_colour(fraction):
+    """RGBA (uint8 tuple) of a fraction in [0, 1] on the open-to-closed ramp (clipped)."""
+    return tuple(int(c) for c in ramp_colours([float(fraction)])[0])
+
+
+def panel_colours(fraction, seen, fault, known=True):
+    """(N, 4) RGBA of panels: ``fraction`` on the ramp, red on a fault, else grey unseen.
+
+    ``seen``: the panel has reported; ``fault``: its fault code (0: none); ``known``: its
+    ``fraction`` has a value (False: grey, e.g. a pressure without a reading).
+    """
+    known = np.asarray(known) & np.isfinite(fraction)
+    rgba = ramp_colours(np.where(known, fraction, 0.0))
+    rgba[~(known & seen)] = NO_STATE_RGBA
+    rgba[seen & (np.asarray(fault) != 0)] = FAULT_RGBA
+    return rgba
