@@ -2,7 +2,8 @@
 
 ``ros2 launch flectofold_ros facade.launch.py [facade_file:=PATH] [date:=2026-06-21]
 [start:=12:00] [end:=15:00] [speedup:=360.0] [panel_processes:=2] [record_bag:=DIR]
-[rerun_viewer:=auto|spawn|none|URL] [rrd_path:=day.rrd] [weather_file:=PATH]``
+[rerun_viewer:=auto|spawn|none|URL] [rrd_path:=day.rrd] [weather_file:=PATH]
+[markers:=true]``
 
 The launch-time counterpart of ``ros2 run flectofold_ros facade --panel-processes N``: the
 same :class:`flectofold_ros.bringup.plan.DayPlan` and so the same node parameters, but every
@@ -52,6 +53,8 @@ ARGUMENTS = {
     'rrd_path': ('', 'The bridge also saves this .rrd (see rerun_bridge.md)'),
     'weather_file': ('', 'Play this EPW or TMY3 file into the coordinator (weather_node, '
                          'weather.md); empty: no weather'),
+    'markers': ('false', 'true: start facade_markers, the folded facade on /facade/markers for '
+                         'RViz and Foxglove (markers.md)'),
 }
 
 
@@ -102,12 +105,19 @@ def launch_setup(context, *args, **kwargs):
 
 
 def _observers(context, plan):
-    """Return the recorder and the bridge, when asked for; both on the simulated clock."""
+    """Return the recorder, the markers and the bridge, when asked for; on the simulated clock."""
     actions = []
     bag = _configuration(context, 'record_bag')
     if bag:
         actions.append(Node(package=PACKAGE, executable='bag_recorder', output='screen',
                             parameters=[plan.recorder_parameters(_absolute(bag))]))
+    markers = _configuration(context, 'markers').lower()
+    if markers not in ('true', 'false'):
+        raise PlanError(f'facade.launch.py: markers must be true or false, got {markers!r}')
+    if markers == 'true':
+        actions.append(Node(package=PACKAGE, executable='facade_markers',
+                            namespace=contract.FACADE_NODE_NAMESPACE, output='screen',
+                            parameters=[plan.markers_parameters()]))
     viewer = _configuration(context, 'rerun_viewer')
     if viewer:
         rrd_path = _absolute(_configuration(context, 'rrd_path'))

@@ -96,6 +96,10 @@ def parse_arguments(argv):
                         help='stream the 3D facade to Rerun and save an .rrd; VIEWER: auto '
                              '(spawn a viewer when a display is set; the default), spawn, '
                              'none (file only) or a gRPC URL rerun+http://127.0.0.1:9876/proxy')
+    parser.add_argument('--markers', action='store_true',
+                        help='start facade_markers: the folded facade on /facade/markers for '
+                             'RViz and Foxglove (fixed frame site_enu; config/facade.rviz, '
+                             'msg_docs/markers.md)')
     parser.add_argument('--out', default='out',
                         help='directory for the bag and the .rrd (default out/); each run '
                              'gets a folder, out/latest points to the newest')
@@ -209,6 +213,8 @@ class Bringup(Program):
             supervisor.add('rerun_bridge', lambda start: plan.bridge_command(
                 os.path.join(outputs, _numbered('facade', start) + '.rrd'), options.rerun),
                 env=env)
+        if options.markers:
+            supervisor.add('facade_markers', lambda start: plan.markers_command(), env=env)
         groups = plan.panel_processes
         for k in range(groups):
             supervisor.add(f'panel_group {k}/{groups}',

@@ -137,6 +137,12 @@ class DayPlan:
     def bridge_command(self, rrd_path, viewer):
         return executable_command('rerun_bridge', [], self.bridge_parameters(rrd_path, viewer))
 
+    def markers_parameters(self):
+        return {'use_sim_time': True, 'facade_file': self.facade_file}
+
+    def markers_command(self):
+        return executable_command('facade_markers', [], self.markers_parameters())
+
 
 def executable_command(name, arguments, parameters):
     """``python -m flectofold_ros NAME arguments --ros-args -p name:=value ...``."""

@@ -6,14 +6,17 @@ import pytest
 from rcl_interfaces.msg import ParameterType
 import yaml
 
-from flectofold_ros.nodes import bag_recorder, coordinator, panel, rerun_bridge, sun_position
+from flectofold_ros import contract
+from flectofold_ros.nodes import (bag_recorder, coordinator, facade_markers, panel, rerun_bridge,
+                                  sun_position)
 
 CONFIG = Path(__file__).resolve().parents[2] / 'config'
 #: config file -> the parameters of the node it is for.
 FILES = {'panel.yaml': panel.PARAMETERS, 'coordinator.yaml': coordinator.PARAMETERS,
          'sun_position.yaml': sun_position.PARAMETERS,
          'rerun_bridge.yaml': rerun_bridge.PARAMETERS,
-         'bag_recorder.yaml': bag_recorder.PARAMETERS}
+         'bag_recorder.yaml': bag_recorder.PARAMETERS,
+         'facade_markers.yaml': facade_markers.PARAMETERS}
 #: rclpy's own parameter, which every node has.
 BUILT_IN = {'use_sim_time': ParameterType.PARAMETER_BOOL}
 PYTHON_TYPES = {ParameterType.PARAMETER_BOOL: bool, ParameterType.PARAMETER_DOUBLE: float,
@@ -49,3 +52,25 @@ def test_the_panel_file_lists_every_panel_parameter_at_its_default():
     parameters = document['/**']['ros__parameters']
     assert parameters == {name: spec.default for name, spec in panel.PARAMETERS.items()
                           if name != 'panel_id'}
+
+
+def test_the_rviz_config_shows_the_markers_topic_in_the_site_frame():
+    document = yaml.safe_load((CONFIG / 'facade.rviz').read_text())
+    manager = document['Visualization Manager']
+    assert manager['Global Options']['Fixed Frame'] == contract.SITE_FRAME
+    (display,) = [d for d in manager['Displays']
+                  if d['Class'] == 'rviz_default_plugins/MarkerArray']
+    assert display['Topic']['Value'] == contract.MARKERS.name
+    # a volatile or best-effort subscription would still match; this one gets the latched one
+    assert display['Topic']['Durability Policy'] == 'Transient Local'
+    assert set(display['Namespaces']) == {'panels', 'surface', 'sun'}
+
+
+def test_the_foxglove_layout_shows_the_markers_topic_in_the_site_frame():
+    import json
+    layout = json.loads((CONFIG / 'facade.foxglove.json').read_text())
+    three_d = layout['configById'][layout['layout']['first']]
+    assert three_d['followTf'] == contract.SITE_FRAME
+    assert three_d['topics'] == {contract.MARKERS.name: {'visible': True}}
+    assert layout['configById'][layout['layout']['second']]['topicToRender'] == \
+        contract.DIAGNOSTICS.name

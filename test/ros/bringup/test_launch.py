@@ -214,7 +214,7 @@ def test_declares_the_bringup_defaults(launch_module):
     assert defaults == {'facade_file': '', 'date': '2026-06-21', 'start': '12:00',
                         'end': '15:00', 'speedup': '360.0', 'panel_processes': '2',
                         'record_bag': '', 'rerun_viewer': '', 'rrd_path': '',
-                        'weather_file': ''}
+                        'weather_file': '', 'markers': 'false'}
 
 
 def test_defaults_launch_the_embedded_demonstrator(launch_module):
@@ -263,6 +263,18 @@ def test_the_recorder_and_the_bridge_on_request(launch_module, tmp_path):
     assert len(_nodes(launch_module)) == 4  # neither by default
     (sun,) = _by_executable(nodes, 'sun_position_node')
     assert _parameters(sun)['start.wait_for_sun_listeners'] == 3  # coordinator and both
+
+
+def test_the_markers_on_request_listen_to_the_sun_too(launch_module):
+    nodes = _nodes(launch_module, markers='true')
+    (markers,) = _by_executable(nodes, 'facade_markers')
+    assert markers['namespace'] == '/facade'
+    assert _parameters(markers) == {'use_sim_time': True, 'facade_file': ''}
+    (sun,) = _by_executable(nodes, 'sun_position_node')
+    assert _parameters(sun)['start.wait_for_sun_listeners'] == 2  # coordinator, markers
+    assert not _by_executable(_nodes(launch_module), 'facade_markers')
+    with pytest.raises(ValueError, match='markers must be true or false'):
+        _nodes(launch_module, markers='yes')
 
 
 def test_the_weather_node_on_request_follows_the_clock_and_respawns(launch_module, tmp_path):

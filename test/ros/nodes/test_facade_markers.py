@@ -153,3 +153,30 @@ def test_the_node_publishes_latched_markers_in_the_site_frame(small_facade_text,
                                   table['fold_angle_rad'].astype(float))
     assert points.shape == expected[2].shape
     assert np.abs(points - expected[2]).max() < VERTEX_TOLERANCE_M
+
+
+def test_facade_markers_shows_the_bringup_s_day(small_facade_text, tmp_path):
+    """``facade --markers``: the markers follow the panels of a simulated day."""
+    facade_file = tmp_path / 'small.yaml'
+    facade_file.write_text(small_facade_text('period_s: 60.0, shading_target: 0.9, '
+                                             'min_dwell_s: 300.0, default_closure: 1.0'))
+    graph = Graph(domain_for(26))
+    heard = []
+    try:
+        subscription(graph.node, contract.MARKERS, heard.append)
+        bringup = graph.start('facade', '--facade', str(facade_file), '--start', '11:00',
+                              '--end', '11:20', '--speedup', '60', '--panel-processes', '1',
+                              '--markers')
+
+        def coloured():  # every panel reported: none grey any more
+            grey = np.array(colours.NO_STATE_RGBA[:3]) / 255.0
+            panels = {m.id: m for array in heard for m in array.markers if m.ns == 'panels'}
+            return len(panels) == 4 and all(
+                np.abs(np.array([m.color.r, m.color.g, m.color.b]) - grey).max() > 1e-3
+                for m in panels.values())
+        assert graph.spin_until(coloured, 150.0), heard[-1:] or bringup.poll()
+        output, _ = bringup.communicate(timeout=150)
+    finally:
+        graph.close()
+    assert bringup.returncode == 0 and 'Traceback' not in output, output
+    assert '/facade/markers' in output  # facade_markers said what it publishes
