@@ -60,6 +60,11 @@ def run(name, args=None):
             return importlib.import_module(module_name).main(args)
         except Interrupted:
             return stopped_code
+        except BrokenPipeError:
+            # the reader of the output left (``day_report | head``): no traceback, and none
+            # at exit from flushing into the closed pipe either (the Python docs' recipe)
+            os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+            return 1
         except ImportError:
             # A stop signal that lands in an extension module's initialisation comes out as
             # "ImportError: initialization failed": the start was abandoned all the same.

@@ -89,21 +89,25 @@ class DayReport:
         return lines
 
 
-def simulate_day(facade, date_iso, step_s=300.0, samples=16):
+def simulate_day(facade, date_iso, step_s=300.0, samples=16, progress=None):
     """Run ``facade`` through the local day ``date_iso`` ('YYYY-MM-DD'); see the module doc.
 
     The facade's panels are all quad panels or all hexagonal ones; each is cast against its
     own kind's mesh. ``samples`` is the ray grid per side of each footprint (see
-    :mod:`.shading`).
+    :mod:`.shading`). ``progress``: called with a line of text before each long step.
     """
+    say = progress or (lambda text: None)
     epochs = sun.day_epochs(date_iso, facade.utc_offset_h, step_s)
     position = sun.solar_position(epochs, facade.site)
     dni = clear_sky_dni(epochs, facade.site)
     sun_panel = facade.sun_in_panel_frames(position.enu)
     sunlit = (sun_panel[..., 2] > 0) & position.above_horizon[:, None]
     fold = fold_model_of(facade.panels)
+    say(f'casting rays: {len(facade)} panels at {int(np.count_nonzero(sunlit.any(axis=1)))} '
+        f'sunlit instants of {len(epochs)}, every closure candidate')
     blocked = _blocked_table(fold, sun_panel, sunlit, samples)
     view = _view_table(fold, samples)
+    say('scheduling the day and its two baselines')
     target = facade.control.get('shading_target', 0.9)
     window = int(round(facade.control.get('look_ahead_s', 0.0) / step_s))
     parameters = scheduler_parameters(facade)

@@ -8,6 +8,7 @@ counterpart (each panel kind is cast against its own meshes).
 import argparse
 from pathlib import Path
 import sys
+import time
 
 from flectofold_model.facade import DEFAULT_FACADE, load_facade
 from flectofold_model.scheduling.day_report import plot, simulate_day
@@ -33,7 +34,10 @@ def main(args=None):
 def report_day(options):
     """Simulate the day, print its figures, write the PNG; return 0."""
     facade = load_facade(options.facade)
-    report = simulate_day(facade, options.date, step_s=options.step)
+    started = time.monotonic()
+    report = simulate_day(facade, options.date, step_s=options.step,
+                          progress=lambda text: print(f'day_report: {text}', flush=True))
+    print(f'day_report: done in {time.monotonic() - started:.0f} s', flush=True)
     lines = facade.report() if options.prefold_report else facade.report()[:1]
     print('\n'.join(lines + report.lines()))
     options.out.mkdir(parents=True, exist_ok=True)

@@ -150,3 +150,26 @@ def test_a_signal_after_the_work_is_done_cannot_kill_the_process_on_its_way_out(
     run = subprocess.run([sys.executable, '-c', LATE_SIGNALS, str(tmp_path)],
                          capture_output=True, text=True, timeout=60)
     assert run.returncode == 0 and 'Traceback' not in run.stderr, run.stderr
+
+
+CHATTY = """
+import sys
+sys.path.insert(0, sys.argv[1])
+from flectofold_ros import executables
+executables.EXECUTABLES['chatty'] = ('chatty_module', 130)
+sys.exit(executables.run('chatty', []))
+"""
+
+
+def test_a_reader_that_leaves_early_ends_the_command_without_a_traceback(tmp_path):
+    """``day_report | head -2``: the pipe closes under the command."""
+    import subprocess
+    import sys
+    (tmp_path / 'chatty_module.py').write_text(
+        'def main(args=None):\n    for i in range(10**6):\n        print(i)\n    return 0\n')
+    process = subprocess.Popen([sys.executable, '-c', CHATTY, str(tmp_path)],
+                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    assert process.stdout.readline() == '0\n'
+    process.stdout.close()
+    error = process.stderr.read()
+    assert process.wait(timeout=60) == 1 and 'Traceback' not in error, error
