@@ -93,8 +93,8 @@ def simulate_day(facade, date_iso, step_s=300.0, samples=16):
     """Run ``facade`` through the local day ``date_iso`` ('YYYY-MM-DD'); see the module doc.
 
     The facade's panels are all quad panels or all hexagonal ones; each is cast against its
-    own kind's mesh. ``samples`` is the ray grid per side of each footprint (see
-    :mod:`.shading`).
+    own kind's mesh. ``samples`` is the resolution across each footprint (``3 samples`` scan
+    lines, see :mod:`.shading`).
     """
     epochs = sun.day_epochs(date_iso, facade.utc_offset_h, step_s)
     position = sun.solar_position(epochs, facade.site)

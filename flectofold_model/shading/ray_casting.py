@@ -34,7 +34,7 @@ them it costs nothing, only where an edge runs (nearly) along them, up to half a
 share per such edge. Straight shadow edges along x and y, which every sun leaves parallel to
 the sheets' edges along and across the mid-rib, cross the tilted lines; on a grid of points
 they would run along its rows and cost up to a row's share each (1/24; 0.036 over the cases
-of bench/bench_shading_accuracy.py with 24 x 24 points, 0.0032 with 72 lines).
+of bench/bench_shading_accuracy.py with 24 x 24 points, 0.0031 with 72 lines).
 
 **Neighbours.** With ``standoff_m > 0`` an oblique ray from the footprint leaves the panel's
 own cell before it reaches the sheet: it passes the facade through a neighbour's cell. By
@@ -52,7 +52,7 @@ blocked fractions are lower bounds there.
 
 Resolution and cost: the default :data:`SHADING_TOPOLOGY` (280 triangles) resolves the sheet
 to about ``L / 10`` along the mid-rib, and ``samples = 24`` (72 lines) keeps the blocked
-fraction within 0.004 of the exact shadow area of that mesh (0.0003 on average) over the
+fraction within 0.004 of the exact shadow area of that mesh (0.0002 on average) over the
 closures 0 ... 1 and suns 0 ... 80 deg off the normal of msg_docs/scheduling.md. The work per
 panel is the lines times the triangles near the footprint in each cell crossed, each on the
 few lines its shadow spans: one cell at normal incidence, a few in oblique sun. Panels are
