@@ -13,7 +13,9 @@ the blocked fraction"):
    DEMONSTRATOR_MODULE and the HEXAGON_MODULE: max and mean over closures 0 ... 1 and suns
    0 ... 80 deg off the facade normal at every 15 deg of azimuth;
 3. CPU seconds (``time.process_time``, the least of ``REPEATS`` runs at samples 16 and 24)
-   of those calls and of building a ShadingTable.
+   of those calls and of building a ShadingTable;
+4. the errors at samples 16 and 24 over a finer sweep: every degree of azimuth at 50 and
+   75 deg off the normal, closures 0.5 and 1.
 
 With ``git`` and the repository at hand, the same figures are printed for the point
 sampling that this module replaced (commit ``BASELINE_COMMIT``, cell-centre rays), loaded
@@ -266,6 +268,29 @@ def worst_cases(kind, shape, sun, value, reference, count=3):
               f'{value[n]:.4f} against {reference[n]:.4f}')
 
 
+def azimuth_sweep(implementations):
+    """Max and mean error over every degree of azimuth, 50 and 75 deg off the normal."""
+    print('== sweep: azimuth every 1 deg, 50 and 75 deg off the normal, closures 0.5 and 1 ==')
+    off, azimuth, closure = np.meshgrid([50.0, 75.0], np.arange(0.0, 360.0, 1.0), [0.5, 1.0],
+                                        indexing='ij')
+    sun = toward(off.ravel(), azimuth.ravel())
+    for kind in ('quad', 'hexagon'):
+        count = sun.shape[0]
+        model = (FoldModel(PanelBatch.repeat(DEMONSTRATOR_MODULE, count)) if kind == 'quad'
+                 else HexagonFoldModel(HexagonBatch.repeat(HEXAGON_MODULE, count)))
+        shape = model.state_from_closure(closure.ravel()).shape_parameter
+        reference = references(kind, model, shape, sun)
+        for samples in (16, 24):
+            figures = []
+            for name, module in implementations:
+                if module is not None:
+                    value = module.blocked_fraction(model.batch, shape, sun,
+                                                    samples=samples).blocked_fraction
+                    worst, mean = errors(value, reference)
+                    figures.append(f'{name} max {worst:.4f} mean {mean:.5f}')
+            print(f'{kind:<8} samples {samples}: ' + '   '.join(figures))
+
+
 def table_cost(implementations):
     print('== building a ShadingTable (defaults: 11 closures, 5 deg steps, samples 16) ==')
     for panel in (DEMONSTRATOR_MODULE, HEXAGON_MODULE):
@@ -300,6 +325,7 @@ def main():
                 print(f'  worst cases, {name}, default samples:')
                 value = module.blocked_fraction(model.batch, shape, sun).blocked_fraction
                 worst_cases(kind, shape, sun, value, reference)
+    azimuth_sweep(implementations)
     table_cost(implementations)
     sys.stdout.flush()
 
