@@ -32,7 +32,9 @@ HEXAGON_LINE_ANGLE_RAD = math.radians(15.0)
 LINES_PER_SAMPLE = 3
 #: Units per line parameter in the exact (integer) union of intervals: ``2**-30`` units.
 _QUANTUM = float(2**30)
-#: Spacing of the groups of intervals in the integer union (above twice ``2 * _QUANTUM``).
+#: Spacing of the groups (panel, line) of intervals in the integer union: above the range of a
+#: quantised ``t`` (``|t| <= 2``, ``2**31`` quanta either way); (panel x lines + line) x
+#: spacing stays within int64 for up to ``2**30`` panel lines at once.
 _GROUP_SPACING = 2**33
 
 
