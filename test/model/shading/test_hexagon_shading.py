@@ -292,7 +292,7 @@ def test_a_batch_equals_its_panels_one_by_one():
 
 
 def test_shading_topology_converges(module):
-    """The default mesh is near a mesh 20 times finer at the same rays; coarser is worse.
+    """The default mesh is near a mesh 20 times finer at the same scan lines; coarser is worse.
 
     msg_docs/hexagon_shading.md has the full convergence table (bench/bench_hexagon_shading.py).
     """
