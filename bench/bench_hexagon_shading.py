@@ -4,9 +4,10 @@ Run with ``.venv/bin/python bench/bench_hexagon_shading.py`` (about two minutes)
 BLAS pinned to one thread. Prints the figures of msg_docs/hexagon_shading.md:
 
 1. the blocked fraction's error against a dense mesh (48 rulings per sector, 16 rings, 32 flap
-   columns: 13,206 triangles) at the same rays, per mesh topology;
-2. its error against dense rays (samples 72: 5,046 rays) on the same mesh, per ``samples``;
-3. the default (topology and samples) against the dense mesh with dense rays;
+   columns: 13,206 triangles) at the same scan lines, per mesh topology;
+2. its error against dense scan lines (samples 72: 216 lines) on the same mesh, per
+   ``samples``;
+3. the default (topology and samples) against the dense mesh with dense lines;
 4. CPU seconds (``time.process_time``) of ``blocked_fraction`` for 36 hexagonal and 36 quad
    panels over one set of suns.
 
@@ -26,9 +27,9 @@ from flectofold_model.kinematics.closure import FoldModel  # noqa: E402
 from flectofold_model.kinematics.hexagon import (HEXAGON_MODULE, HexagonBatch,  # noqa: E402
                                                  HexagonFoldModel, HexagonTopology)
 from flectofold_model.kinematics.panel import DEMONSTRATOR_MODULE, PanelBatch  # noqa: E402
-from flectofold_model.shading.hexagon_tiling import sample_grid  # noqa: E402
 from flectofold_model.shading.ray_casting import (blocked_fraction, DEFAULT_SAMPLES,  # noqa: E402
                                                   HEXAGON_SHADING_TOPOLOGY)
+from flectofold_model.shading.scan_lines import line_count  # noqa: E402
 
 DENSE_TOPOLOGY = HexagonTopology(rulings_per_sector=48, rings=16, flap_columns=32)
 DENSE_SAMPLES = 72
@@ -71,8 +72,8 @@ def errors(estimate, reference):
 
 
 def topology_convergence(batch, rise, sun):
-    print(f'== mesh topology, {DEFAULT_SAMPLES} samples ({len(sample_grid(DEFAULT_SAMPLES))} '
-          f'rays), against {len(DENSE_TOPOLOGY.faces)} triangles ==')
+    print(f'== mesh topology, {DEFAULT_SAMPLES} samples ({line_count(DEFAULT_SAMPLES)} '
+          f'scan lines), against {len(DENSE_TOPOLOGY.faces)} triangles ==')
     reference, cpu = timed(lambda: blocked_fraction(batch, rise, sun, DENSE_TOPOLOGY)
                            .blocked_fraction)
     print(f'reference: {cpu:.1f} CPU s for {len(batch)} cases')
@@ -87,12 +88,12 @@ def topology_convergence(batch, rise, sun):
 
 def sample_convergence(batch, rise, sun):
     print(f'== samples, on HEXAGON_SHADING_TOPOLOGY, against samples {DENSE_SAMPLES} '
-          f'({len(sample_grid(DENSE_SAMPLES))} rays) ==')
+          f'({line_count(DENSE_SAMPLES)} scan lines) ==')
     reference = blocked_fraction(batch, rise, sun, samples=DENSE_SAMPLES).blocked_fraction
     for samples in SAMPLES:
         value, cpu = timed(lambda: blocked_fraction(batch, rise, sun, samples=samples)
                            .blocked_fraction)
-        print(f'samples {samples:>2} ({len(sample_grid(samples)):>4} rays): '
+        print(f'samples {samples:>2} ({line_count(samples):>4} lines): '
               f'{errors(value, reference)}  {cpu:5.2f} CPU s')
 
 

@@ -93,8 +93,9 @@ def simulate_day(facade, date_iso, step_s=300.0, samples=16, progress=None):
     """Run ``facade`` through the local day ``date_iso`` ('YYYY-MM-DD'); see the module doc.
 
     The facade's panels are all quad panels or all hexagonal ones; each is cast against its
-    own kind's mesh. ``samples`` is the ray grid per side of each footprint (see
-    :mod:`.shading`). ``progress``: called with a line of text before each long step.
+    own kind's mesh. ``samples`` is the resolution across each footprint (``3 samples`` scan
+    lines, see :mod:`.shading`). ``progress``: called with a line of text before each long
+    step.
     """
     say = progress or (lambda text: None)
     epochs = sun.day_epochs(date_iso, facade.utc_offset_h, step_s)

@@ -2,6 +2,7 @@
 
 - :mod:`.ray_casting`: blocked and view fractions by ray casting against the folded meshes,
   and the rule that picks a closure from them;
+- :mod:`.scan_lines`: the lines across a footprint along which they are measured exactly;
 - :mod:`.table`: one panel type's blocked fractions tabulated over sun directions and closures,
   for choosing closures every control period.
 """

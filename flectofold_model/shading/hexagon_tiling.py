@@ -5,11 +5,9 @@ panel is the regular hexagon of circumradius ``R`` around the origin with corner
 azimuths ``30 + 60 j`` degrees, so two of its sides are parallel to y at ``x = +-sqrt(3) R / 2``.
 Its bounding box is ``sqrt(3) R`` along x by ``2 R`` along y.
 
-**Samples.** The hexagon is cut into its six equilateral triangles (centre, corner ``j``,
-corner ``j + 1``) and each of them into ``n**2`` congruent triangles by ``n`` equal steps
-along its sides; the ray origins are the centroids of those ``6 n**2`` triangles. Every sample
-stands for the same area and together they cover the hexagon exactly, so a share of samples
-is a share of the hexagon's area (not of its bounding box); no sample lies on the outline.
+**Scan lines.** The ray casting measures the hexagon along parallel lines across it
+(:func:`.scan_lines.hexagon_lines`), so its shares are shares of the hexagon's area (not of
+its bounding box).
 
 **Tiling.** Identical hexagonal panels in one orientation tile the facade edge to edge on the
 lattice ``i b1 + j b2`` with ``b1 = (sqrt(3) R, 0)`` and ``b2 = (sqrt(3) R / 2, 3 R / 2)``: the
@@ -25,35 +23,6 @@ import numpy as np
 SIDE_NORMALS = np.array([[math.cos(a), math.sin(a)] for a in np.radians([0.0, 60.0, 120.0])])
 #: Slack on the reach of a lattice cell (relative): a cell exactly at the reach is crossed.
 _REACH_SLACK = 1e-9
-
-
-def triangles_per_side(samples):
-    """Return the steps ``n`` per side of each of the six triangles for ``samples``.
-
-    ``n = max(1, round(samples / sqrt(6)))`` gives ``6 n**2`` rays, about the ``samples**2``
-    of a quad panel's footprint (24 -> 600 rays, 16 -> 294, 12 -> 150).
-    """
-    return max(1, int(round(samples / math.sqrt(6.0))))
-
-
-def sample_grid(samples):
-    """(S, 3) rows ``(x / (sqrt(3) R), y / (2 R), 1)`` of the ray origins in the hexagon.
-
-    The coordinates are in units of the bounding box, so one grid serves panels of any size;
-    ``S = 6 n**2`` with ``n`` from :func:`triangles_per_side`.
-    """
-    n = triangles_per_side(samples)
-    i, j = np.meshgrid(np.arange(n), np.arange(n), indexing='ij')
-    up = (i + j <= n - 1)
-    down = (i + j <= n - 2)
-    a = np.concatenate([(i[up] + 1 / 3) / n, (i[down] + 2 / 3) / n])
-    b = np.concatenate([(j[up] + 1 / 3) / n, (j[down] + 2 / 3) / n])
-    corners = np.radians(30.0 + 60.0 * np.arange(7))
-    corner = np.stack([np.cos(corners), np.sin(corners)], axis=-1)
-    points = (a[None, :, None] * corner[:-1, None, :]
-              + b[None, :, None] * corner[1:, None, :]).reshape(-1, 2)
-    scaled = points / np.array([math.sqrt(3.0), 2.0])
-    return np.column_stack([scaled, np.ones(len(scaled))])
 
 
 def bounding_box_m(circumradius_m):

@@ -12,17 +12,29 @@ A footprint point is **blocked** when its ray toward the sun, ``p + t s`` with `
 hits a folded sheet: mid-rib or flap. The **blocked fraction** is the blocked share of the
 footprint's area; with ``s_z > 0`` every footprint point receives direct sun unless blocked,
 so it is also the share of the direct sun on the footprint that the panels intercept. It is
-estimated on a fixed grid of ``samples x samples`` points, the centres of equal cells of the
-footprint, each ray tested against the triangles of the mesh by the Moller-Trumbore
-algorithm. With ``s`` fixed per panel, Moller-Trumbore's barycentric coordinates are affine in
-the ray origin, ``u = (o - v0) . (s x e2) / det`` and ``v = (o - v0) . (e1 x s) / det``, so
-their per-triangle factors are computed once (in float64) and the tests of all rays against
-all triangles become batched matrix products (in float32: positions to about a micrometre).
-A ray hits a triangle where ``u, v, 1 - u - v >= -1e-4`` (the slack closes shared edges
-against rounding); the check ``t > 0`` is not needed because every mesh point lies at
-``z >= 0``, in front of the rays' origins. Triangles seen edge-on (``|det|`` below
-``1e-12 |e1| |e2|``) cast no shadow, and triangles whose shadow's bounding box misses the
-footprint are left out of the products.
+measured along ``3 samples`` parallel **scan lines** across the footprint
+(:mod:`.scan_lines`), the midlines of equal strips, tilted away from the x and y axes: on
+each line, the rays from every point of it are tested at once against each triangle of the
+mesh by the Moller-Trumbore algorithm. With ``s`` fixed per panel, Moller-Trumbore's
+barycentric coordinates are affine in the ray origin, ``u = (o - v0) . (s x e2) / det`` and
+``v = (o - v0) . (e1 x s) / det`` (factors computed once per triangle, in float64), so along
+a line they are affine in its parameter and the points whose ray hits the triangle,
+``u, v, 1 - u - v >= -1e-4``, form one interval, found from the three coordinates' zeros
+(in float32: to about 1e-7 of the footprint). The slack closes shared edges against
+rounding; the check ``t > 0`` is not needed because every mesh point lies at ``z >= 0``, in
+front of the rays' origins. The union of a line's intervals is measured exactly (on a grid
+of ``2**-30`` of its parameter, so no result depends on how panels are batched), and the
+blocked fraction is the lines' blocked length over their chords' length. Triangles seen
+edge-on (``|det|`` below ``1e-12 |e1| |e2|``) cast no shadow, triangles whose shadow's
+bounding box misses the footprint are left out, and each triangle is tested on the lines
+its shadow spans only.
+
+The error is that of the midpoint rule across the lines: where a shadow's outline crosses
+them it costs nothing, only where an edge runs (nearly) along them, up to half a strip's
+share per such edge. Straight shadow edges along x and y, which every sun leaves parallel to
+the sheets' edges along and across the mid-rib, cross the tilted lines; on a grid of points
+they would run along its rows and cost up to a row's share each (1/24; 0.036 over the cases
+of bench/bench_shading_accuracy.py with 24 x 24 points, 0.0031 with 72 lines).
 
 **Neighbours.** With ``standoff_m > 0`` an oblique ray from the footprint leaves the panel's
 own cell before it reaches the sheet: it passes the facade through a neighbour's cell. By
@@ -38,23 +50,25 @@ meshes' height range. Only a sun within about a degree of the facade plane needs
 closed demonstrator module's flaps, 0.5 m tall, on 1 m cells: 32 cells at 0.9 deg), and
 blocked fractions are lower bounds there.
 
-Resolution and cost: the default :data:`SHADING_TOPOLOGY` (280 triangles) and 24 x 24 samples
-resolve the footprint to ``1 / 576`` and the sheet to about ``L / 10`` along the mid-rib; the
-estimate's error is at most the share of sample cells that a shadow's outline crosses, and
-in practice under 0.01. The work per panel is the sample rays times the triangles near the
-footprint in each cell crossed: one cell at normal incidence, a few in oblique sun. Panels
-are meshed 256 at a time and the products cut to a few MB, so memory stays bounded.
+Resolution and cost: the default :data:`SHADING_TOPOLOGY` (280 triangles) resolves the sheet
+to about ``L / 10`` along the mid-rib, and ``samples = 24`` (72 lines) keeps the blocked
+fraction within 0.004 of the exact shadow area of that mesh (0.0002 on average) over the
+closures 0 ... 1 and suns 0 ... 80 deg off the normal of msg_docs/scheduling.md. The work per
+panel is the lines times the triangles near the footprint in each cell crossed, each on the
+few lines its shadow spans: one cell at normal incidence, a few in oblique sun. Panels are
+meshed 256 at a time and the intervals made a block of pairs at a time, so memory stays
+bounded.
 
 **Hexagonal panels.** Every public function takes a batch (or fold model) of either kind;
 the shape parameter is then the centre rise [m] and the footprint is the hexagon itself, behind
-the sheet (:mod:`.hexagon_tiling`): ``6 n**2`` rays from the centroids of equal triangles that
-cover it exactly (``n = round(samples / sqrt(6))``, 600 rays for 24), so the fractions are
-shares of the hexagon's area. Neighbours are copies on the hexagonal lattice of the panel's
-size; a copy is tested where it lies within the footprint's radius plus the mesh's of a ray's
-run, and a ray's run is cut to ``max_cells`` across-flats widths. Triangles are culled by
+the sheet (:mod:`.hexagon_tiling`), and the scan lines cross it at 15 deg to its edges'
+directions, so the fractions are shares of the hexagon's area. Neighbours are copies on the
+hexagonal lattice of the panel's size; a copy is tested where it lies within the footprint's
+radius plus the mesh's of a ray's run, and a ray's run is cut to ``max_cells`` across-flats
+widths. Triangles are culled by
 their shadow's extent across the hexagon's three pairs of sides. The default
 :data:`HEXAGON_SHADING_TOPOLOGY` (144 triangles) is within 0.003 (mean; 0.02 at most) of a
-mesh of 13,206 triangles at the same rays (msg_docs/hexagon_shading.md).
+mesh of 13,206 triangles (msg_docs/hexagon_shading.md).
 """
 
 from dataclasses import dataclass
@@ -70,14 +84,14 @@ from flectofold_model.kinematics.hexagon.closure import MAX_SPOKE_TILT_RAD
 from flectofold_model.kinematics.kinds import is_topology_for
 from flectofold_model.kinematics.mesh import fold_mesh, MeshTopology
 from flectofold_model.kinematics.panel import PanelBatch
-from flectofold_model.shading import hexagon_tiling
+from flectofold_model.shading import hexagon_tiling, scan_lines
 
 #: Mesh resolution for shading: 11 stations x (3 + 2 x 7) columns, 280 triangles per panel.
 SHADING_TOPOLOGY = MeshTopology(stations=11, midrib_columns=3, flap_columns=7)
 #: Mesh resolution for shading hexagonal panels, chosen by the convergence check of
 #: msg_docs/hexagon_shading.md.
 HEXAGON_SHADING_TOPOLOGY = HexagonTopology(rulings_per_sector=6, rings=2, flap_columns=4)
-#: Default sample rays per side of the footprint (24 x 24 = 576 rays per panel).
+#: Default resolution across the footprint: 3 x 24 = 72 scan lines per panel.
 DEFAULT_SAMPLES = 24
 #: Default gap between the sheet and the window or wall behind it [m].
 DEFAULT_STANDOFF_M = 0.05
@@ -91,14 +105,14 @@ DEFAULT_CLOSURES.setflags(write=False)
 SUNLIT_MIN_SZ = 1e-9
 #: Largest accepted deviation of a sun vector's length from 1.
 _UNIT_TOLERANCE = 1e-6
-#: Slack on the barycentric coordinates, which are evaluated in float32 (errors near 1e-6):
-#: a ray on an edge shared by two triangles hits.
+#: Slack on the barycentric coordinates: a ray on an edge shared by two triangles hits (the
+#: intervals of the two overlap by about 1e-4 of the triangles' size).
 _BARYCENTRIC_SLACK = 1e-4
 #: Triangles with ``|det| <= _EDGE_ON |e1| |e2|`` are parallel to the ray.
 _EDGE_ON = 1e-12
-#: Panels whose meshes are built at once, and matrix elements per ray-casting product.
+#: Panels whose meshes are built at once, and (line, triangle) tests per block of pairs.
 _PANEL_CHUNK = 256
-_ELEMENT_BUDGET = 1 << 21
+_ELEMENT_BUDGET = 1 << 19
 
 
 @dataclass(frozen=True)
@@ -132,8 +146,8 @@ def blocked_fraction(batch, shape_parameter, sun_panel, topology=None, samples=D
                      max_cells=DEFAULT_MAX_CELLS):
     """Share of each panel's footprint that the folded sheets keep out of the direct sun.
 
-    Vectorised over panels: all rays of a chunk of panels are tested against all their
-    triangles in batched matrix products; there is no loop over single panels.
+    Vectorised over panels: the scan lines of a chunk of panels are tested against all their
+    triangles in batched array operations; there is no loop over single panels.
 
     Parameters
     ----------
@@ -151,9 +165,8 @@ def blocked_fraction(batch, shape_parameter, sun_panel, topology=None, samples=D
         Mesh resolution of the sheets, of the batch's kind; default :data:`SHADING_TOPOLOGY`
         for quad panels, :data:`HEXAGON_SHADING_TOPOLOGY` for hexagonal ones.
     samples : int, default 24
-        Sample rays per side of the footprint: ``samples**2`` rays per quad panel, at the
-        centres of equal cells; about as many (``6 n**2``, see
-        :mod:`.hexagon_tiling`) per hexagonal panel, at the centroids of equal triangles.
+        Resolution across the footprint: ``3 samples`` scan lines (the midlines of equal
+        strips), along each of which the blocked length is measured exactly.
     standoff_m : float, default 0.05
         Distance of the footprint (window or wall) behind the flat sheet [m], ``>= 0``.
     tessellated : bool, default True
@@ -166,8 +179,8 @@ def blocked_fraction(batch, shape_parameter, sun_panel, topology=None, samples=D
     Returns
     -------
     Shading
-        ``blocked_fraction`` in ``[0, 1]`` (a multiple of one over the rays per panel; 0
-        where not sunlit) and the ``sunlit`` mask, each of shape ``(N,)``.
+        ``blocked_fraction`` in ``[0, 1]`` (exactly 1 where the sheets leave no gap on any
+        line; 0 where not sunlit) and the ``sunlit`` mask, each of shape ``(N,)``.
 
     Raises
     ------
@@ -203,7 +216,7 @@ def view_fraction(batch, shape_parameter, topology=None, samples=DEFAULT_SAMPLES
     topology : MeshTopology or HexagonTopology, optional
         Mesh resolution of the sheets, as :func:`blocked_fraction`.
     samples : int, default 24
-        Sample rays per side of the footprint.
+        Resolution across the footprint, as :func:`blocked_fraction`.
 
     Returns
     -------
@@ -238,12 +251,12 @@ def closure_for_shading(fold_model, sun_panel, target_blocked, closures=DEFAULT_
     3. if no candidate reaches the target, the panel takes the largest ``b(c)``, the nearest
        it can come.
 
-    Ties, which the sampled fractions make common (they move in steps of ``1 / samples**2``),
-    go in turn to the larger ``b(c)`` (rules 1 and 2) or the larger ``v(c)`` (rule 3), then to
-    the smaller closure: it needs less actuation, and where the sampled fractions tie near
-    the open state it is the one that truly blocks more at normal incidence (the sheets'
-    projection shrinks as the panel closes). So a target of 1 at normal incidence gives
-    closure 0, the flat sheet.
+    Ties (candidates that block all the sun, or none, or nearly flat states that block the
+    same) go in turn to the larger ``b(c)`` (rules 1 and 2) or the larger ``v(c)`` (rule 3),
+    then to the smaller closure: it needs less actuation, and near the open state it is the
+    one that blocks more at normal incidence (the sheets' projection shrinks as the panel
+    closes). So a target of 1 at normal incidence gives closure 0, the flattest sheet (which
+    meets it only without a pre-fold: a pre-folded sheet leaves slivers open).
 
     All N x C candidates are evaluated at once as one batch of N x C panel states.
 
@@ -399,27 +412,22 @@ def _shading(batch, shape, sun, topology, samples, standoff, tessellated, max_ce
     blocked = np.zeros(len(batch))
     lit = np.flatnonzero(sunlit)
     hexagonal = isinstance(batch, HexagonBatch)
-    grid = hexagon_tiling.sample_grid(samples) if hexagonal else _sample_grid(samples)
+    lines = (scan_lines.hexagon_lines(samples, hexagon_tiling.SIDE_NORMALS) if hexagonal
+             else scan_lines.quad_lines(samples))
+    chord = scan_lines.chord_length(lines)
     mesh, cast = (hexagon_mesh, _cast_hexagon) if hexagonal else (fold_mesh, _cast)
     for start in range(0, lit.size, _PANEL_CHUNK):
         index = lit[start:start + _PANEL_CHUNK]
         chunk = batch.take(index)
         vertices = mesh(chunk, shape[index], topology).vertices
-        hits = cast(chunk, vertices, topology.faces, sun[index], grid, standoff, tessellated,
-                    max_cells)
-        blocked[index] = hits.mean(axis=-1)
+        covered = cast(chunk, vertices, topology.faces, sun[index], lines, standoff,
+                       tessellated, max_cells)
+        blocked[index] = covered / chord
     return Shading(blocked_fraction=blocked, sunlit=sunlit)
 
 
-def _sample_grid(samples):
-    """(S, 3) rows ``(xi, eta, 1)``: cell centres of the footprint in units of ``L`` and ``W``."""
-    centres = (np.arange(samples) + 0.5) / samples - 0.5
-    xi, eta = np.meshgrid(centres, centres, indexing='ij')
-    return np.stack([xi.ravel(), eta.ravel(), np.ones(samples * samples)], axis=-1)
-
-
-def _cast(batch, vertices, faces, sun, grid, standoff, tessellated, max_cells):
-    """(n, S) hits of the footprint rays of n sunlit panels on their (translated) meshes.
+def _cast(batch, vertices, faces, sun, lines, standoff, tessellated, max_cells):
+    """(n,) blocked length of the scan lines of n sunlit panels under their (copied) meshes.
 
     Every ray is started where it enters the meshes' height range, at ``z0``: the mesh lies
     above. Its start is ``p + a``, ``p`` the footprint point and ``a`` the horizontal run from
@@ -450,12 +458,12 @@ def _cast(batch, vertices, faces, sun, grid, standoff, tessellated, max_cells):
     corners = shadow[:, faces]
     rows = _Rows(owner=panel, origin=(start[panel] - shift) * cell[panel],
                  origin_z=bottom[panel], cell=cell[panel])
-    return _hits(_triangle_factors(vertices, faces, sun), corners.min(axis=2),
-                 corners.max(axis=2), rows, grid, len(batch))
+    return _covered(_triangle_factors(vertices, faces, sun), corners, corners.min(axis=2),
+                    corners.max(axis=2), rows, lines, len(batch))
 
 
-def _cast_hexagon(batch, vertices, faces, sun, grid, standoff, tessellated, max_cells):
-    """(n, S) hits of the footprint rays of n sunlit hexagonal panels on their meshes' copies.
+def _cast_hexagon(batch, vertices, faces, sun, lines, standoff, tessellated, max_cells):
+    """(n,) blocked length of the scan lines of n sunlit hexagonal panels under their meshes.
 
     As :func:`_cast`, on the hexagonal lattice of :mod:`.hexagon_tiling`: the rays start at
     ``z0`` at ``p + a``, the lattice point nearest ``a`` is taken out (``G``), and the home
@@ -488,12 +496,13 @@ def _cast_hexagon(batch, vertices, faces, sun, grid, standoff, tessellated, max_
     shadow = vertices[..., :2] - (z - bottom[:, None])[..., None] * run[:, None, :]
     # The hexagon is the intersection of three slabs across its pairs of opposite sides.
     axes = hexagon_tiling.SIDE_NORMALS
-    corners = (shadow @ axes.T)[:, faces]
+    corners_xy = shadow[:, faces]
+    corners = corners_xy @ axes.T
     origin = start[panel] - np.einsum('kij,kj->ki', basis[panel], cells)
     rows = _Rows(owner=panel, origin=origin, origin_z=bottom[panel], cell=box[panel])
     half = np.repeat(box[panel, :1] / 2, len(axes), axis=1)
-    return _hits(_triangle_factors(vertices, faces, sun), corners.min(axis=2),
-                 corners.max(axis=2), rows, grid, len(batch), slabs=(axes, half))
+    return _covered(_triangle_factors(vertices, faces, sun), corners_xy, corners.min(axis=2),
+                    corners.max(axis=2), rows, lines, len(batch), slabs=(axes, half))
 
 
 def _cells_crossed(start, span):
@@ -565,19 +574,20 @@ class _Rows:
     """Cell size ``(L, W)`` of the row's panel (a hexagon's bounding box), ``(R, 2)`` [m]."""
 
 
-def _hits(factors, shadow_low, shadow_high, rows, grid, count, slabs=None):
-    """OR over the rows of the rays' hits, as ``(count, S)`` booleans.
+def _covered(factors, corners, shadow_low, shadow_high, rows, lines, count, slabs=None):
+    """Blocked length (count,) of each panel's scan lines: the union of all rows' intervals.
 
-    The ray of sample ``(xi, eta)`` in row r starts at ``(xi L + ox, eta W + oy, z0)``, so
-    the barycentric coordinates of every triangle are ``(xi, eta, 1) @ M_r``. Only triangles
-    whose shadow's bounding box (``shadow_low``, ``shadow_high``: (n, F, 2), on the start
-    plane) reaches the footprint enter ``M_r``; rows with similar counts share a product.
-    With ``slabs = (axes, half)`` the footprint is the intersection of the slabs
-    ``|a . (p - o)| <= half`` (axes (A, 2), half (R, A)) and ``shadow_low``, ``shadow_high``
-    (n, F, A) are the extents of the triangles' shadows along the same axes.
+    The ray of the point ``(xi, eta)`` in row r starts at ``(xi L + ox, eta W + oy, z0)``, so
+    the barycentric coordinates of every triangle are ``(xi, eta, 1) @ M_r``, and along a scan
+    line ``origin + t direction`` they are affine in ``t``: each triangle blocks one interval
+    of the line. Only triangles whose shadow's bounding box (``shadow_low``, ``shadow_high``:
+    (n, F, 2), on the start plane) reaches the footprint are tested, each on the lines that
+    its shadow (``corners``, (n, F, 3, 2) [m]) spans. With ``slabs = (axes, half)`` the
+    footprint is the intersection of the slabs ``|a . (p - o)| <= half`` (axes (A, 2), half
+    (R, A)) and ``shadow_low``, ``shadow_high`` (n, F, A) are the extents of the triangles'
+    shadows along the same axes.
     """
-    gradient, constant = factors
-    triangles = constant.shape[1] // 3
+    triangles = shadow_low.shape[1]
     relevant = np.empty((rows.owner.size, triangles), dtype=bool)
     for begin in range(0, rows.owner.size, 4096):
         part = slice(begin, begin + 4096)
@@ -590,38 +600,67 @@ def _hits(factors, shadow_low, shadow_high, rows, grid, count, slabs=None):
             origin = (rows.origin[part] @ slabs[0].T)[:, None, :]
         relevant[part] = np.all((shadow_low[owner] - origin <= half)
                                 & (shadow_high[owner] - origin >= -half), axis=-1)
-    counts = relevant.sum(axis=1)
-    order = np.argsort(-counts, kind='stable')
-    order = order[counts[order] > 0]
-    grid32 = grid.astype(np.float32)
-    hits = np.zeros((count, grid.shape[0]), dtype=bool)
-    begin = 0
-    while begin < order.size:
-        width = int(counts[order[begin]])
-        step = order[begin:begin + max(1, _ELEMENT_BUDGET // (grid.shape[0] * 3 * width))]
-        begin += step.size
-        hits_of_step = _step_hits(gradient, constant, relevant[step], width, rows, step, grid32)
-        np.logical_or.at(hits, rows.owner[step], hits_of_step)
-    return hits
+    row, triangle = np.nonzero(relevant)
+    pieces = []
+    block = max(1, _ELEMENT_BUDGET // (4 * lines.start.size))
+    for begin in range(0, row.size, block):
+        part = slice(begin, begin + block)
+        pieces.append(_block_intervals(factors, corners, rows, row[part], triangle[part],
+                                       lines))
+    if not pieces:
+        return np.zeros(count)
+    owner, line, start, end = (np.concatenate(part) for part in zip(*pieces))
+    return scan_lines.covered_length(owner, line, start, end, count, lines.start.size)
 
 
-def _step_hits(gradient, constant, relevant, width, rows, step, grid32):
-    """Hits ``(r, S)`` of the rows ``step`` on their first ``width`` relevant triangles."""
-    triangles = relevant.shape[1]
-    chosen = np.argsort(~relevant, axis=1, kind='stable')[:, :width]
-    valid = np.take_along_axis(relevant, chosen, axis=1)
-    columns = np.concatenate([chosen, chosen + triangles, chosen + 2 * triangles], axis=1)
-    owner = rows.owner[step]
-    g = np.take_along_axis(gradient[owner], columns[:, None, :], axis=2)
-    c = np.take_along_axis(constant[owner], columns, axis=1)
-    affine = np.empty_like(g)
-    affine[:, 0] = g[:, 0] * rows.cell[step, 0:1]
-    affine[:, 1] = g[:, 1] * rows.cell[step, 1:2]
-    affine[:, 2] = (c + g[:, 0] * rows.origin[step, 0:1] + g[:, 1] * rows.origin[step, 1:2]
-                    + g[:, 2] * rows.origin_z[step, None])
-    affine[:, :, :width] = np.where(valid[:, None, :], affine[:, :, :width],
-                                    [[0.0], [0.0], [-1.0]])
-    uvw = np.matmul(grid32, affine.astype(np.float32))
-    inside = np.minimum(uvw[..., :width], uvw[..., width:2 * width])
-    np.minimum(inside, uvw[..., 2 * width:], out=inside)
-    return inside.max(axis=-1) >= -_BARYCENTRIC_SLACK
+def _block_intervals(factors, corners, rows, row, triangle, lines):
+    """Intervals of the scan lines that the (row, triangle) pairs (P,) block.
+
+    Returns the panel, the line and the ends ``t`` of every non-empty interval (K,): the part
+    of the line's chord where all three barycentric coordinates of the pair's triangle are at
+    least ``-_BARYCENTRIC_SLACK``, on every line that the triangle's shadow spans.
+
+    The lines' origins lie on one line through the footprint's centre, ``offset o`` with ``o``
+    the origin of unit offset, so along line l a coordinate is ``alpha + offset_l beta +
+    t gamma``, with ``alpha``, ``beta`` and ``gamma`` per pair.
+    """
+    gradient, constant = factors
+    count = constant.shape[1] // 3
+    owner = rows.owner[row]
+    columns = triangle[:, None] + count * np.arange(3)
+    g = gradient[owner[:, None], :, columns]
+    # (P, 3) per coordinate (u, v, w): its gradient in (xi, eta) and value at (0, 0) in the row.
+    d_xi = g[..., 0] * rows.cell[row, 0:1]
+    d_eta = g[..., 1] * rows.cell[row, 1:2]
+    alpha = (constant[owner[:, None], columns] + g[..., 0] * rows.origin[row, 0:1]
+             + g[..., 1] * rows.origin[row, 1:2] + g[..., 2] * rows.origin_z[row, None])
+    beta = d_xi * lines.unit_origin[0] + d_eta * lines.unit_origin[1]
+    gamma = d_xi * lines.direction[0] + d_eta * lines.direction[1]
+    # Along line l a coordinate is at least -slack for t >= a + offset_l b where it rises
+    # (gamma > 0), for t <= a + offset_l b where it falls. One constant along the lines (an
+    # edge-on triangle's u = -1, or an edge exactly along them) counts as rising by a tiny
+    # amount: it keeps a whole line or none of it.
+    rising = gamma >= 0.0
+    inverse = 1.0 / np.where(gamma == 0.0, 1e-30, gamma)
+    a = (-_BARYCENTRIC_SLACK - alpha) * inverse
+    b = -beta * inverse
+    # (12, P) in float32 (t to about 1e-7 of the footprint): per coordinate the lower
+    # bound's a and b, then the upper bound's.
+    coefficients = np.concatenate([np.where(rising, a, -np.inf), np.where(rising, b, 0.0),
+                                   np.where(rising, np.inf, a), np.where(rising, 0.0, b)],
+                                  axis=1).T.astype(np.float32)
+    # The lines the triangle's shadow spans, from its corners' offsets across the lines.
+    offsets = ((corners[owner, triangle] - rows.origin[row, None, :])
+               / rows.cell[row, None, :]) @ lines.across
+    first, last = lines.index_range(offsets.min(axis=1), offsets.max(axis=1))
+    spans = np.maximum(last - first + 1, 0)
+    line = np.repeat(first - np.cumsum(spans) + spans, spans) + np.arange(spans.sum())
+    offset = lines.offset32[line]
+    c = np.repeat(coefficients, spans, axis=1)
+    low = lines.start32[line]
+    high = lines.end32[line]
+    for k in range(3):
+        np.maximum(low, c[k] + offset * c[3 + k], out=low)
+        np.minimum(high, c[6 + k] + offset * c[9 + k], out=high)
+    blocked = high > low
+    return np.repeat(owner, spans)[blocked], line[blocked], low[blocked], high[blocked]

@@ -31,8 +31,8 @@ from flectofold_model.shading.ray_casting import (blocked_fraction, choose_candi
 class ShadingTable:
     """Blocked fractions of one panel geometry over sun directions and candidate closures.
 
-    ``panel`` is a :class:`PanelGeometry` or a :class:`HexagonPanel`; ``samples`` is the ray
-    grid of :func:`.ray_casting.blocked_fraction`.
+    ``panel`` is a :class:`PanelGeometry` or a :class:`HexagonPanel`; ``samples`` is the
+    resolution of :func:`.ray_casting.blocked_fraction` (48 scan lines for the default 16).
     """
 
     def __init__(self, panel, closures=np.linspace(0.0, 1.0, 11), step_deg=5.0,
