@@ -89,7 +89,7 @@ class DayReport:
         return lines
 
 
-def simulate_day(facade, date_iso, step_s=300.0, samples=16, progress=None):
+def simulate_day(facade, date_iso, step_s=300.0, samples=24, progress=None):
     """Run ``facade`` through the local day ``date_iso`` ('YYYY-MM-DD'); see the module doc.
 
     The facade's panels are all quad panels or all hexagonal ones; each is cast against its
