@@ -41,6 +41,10 @@ from flectofold_model.kinematics.hexagon import (HEXAGON_MODULE, HexagonBatch,  
 from flectofold_model.kinematics.panel import DEMONSTRATOR_MODULE, PanelBatch  # noqa: E402
 from flectofold_model.shading import ray_casting, scan_lines, table  # noqa: E402
 
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), '..', 'test',
+                                'helpers'))
+import shadow_area  # noqa: E402, I100
+
 #: The last commit with cell-centre point sampling.
 BASELINE_COMMIT = 'fe846d7'
 ROWS = 2048
@@ -76,87 +80,20 @@ def cases(kind):
     return model, shape, np.tile(suns, (CLOSURES.size, 1))
 
 
-# -- reference: exact shadow area along rows ------------------------------------------------
-
-def footprint_half_width(kind, y_m):
-    """Half the footprint's extent along x at heights ``y_m`` [m]."""
-    if kind == 'quad':
-        return np.full_like(y_m, DEMONSTRATOR_MODULE.length_m / 2)
-    radius = HEXAGON_MODULE.circumradius_m
-    return np.minimum(math.sqrt(3.0) * radius / 2, math.sqrt(3.0) * (radius - np.abs(y_m)))
-
-
-def lattice(kind, reach_m):
-    """(K, 2) offsets of the panel and its neighbours' copies within ``reach_m`` [m]."""
-    if kind == 'quad':
-        b1 = np.array([DEMONSTRATOR_MODULE.length_m, 0.0])
-        b2 = np.array([0.0, DEMONSTRATOR_MODULE.width_m])
-    else:
-        radius = HEXAGON_MODULE.circumradius_m
-        b1 = np.array([math.sqrt(3.0) * radius, 0.0])
-        b2 = np.array([math.sqrt(3.0) * radius / 2, 1.5 * radius])
-    count = int(math.ceil(reach_m / min(np.linalg.norm(b1), 0.8 * np.linalg.norm(b2)))) + 2
-    i, j = np.meshgrid(np.arange(-count, count + 1), np.arange(-count, count + 1))
-    offsets = i.reshape(-1, 1) * b1 + j.reshape(-1, 1) * b2
-    return offsets[np.linalg.norm(offsets, axis=-1) <= reach_m]
-
+# -- reference: exact shadow area along rows (the tests' reference, test/helpers) ------------
 
 def reference_fraction(kind, vertices, faces, sun, rows=ROWS):
     """Blocked share of the footprint: area of the union of the shadows over its area.
 
-    The triangles (of the panel and its copies) are projected along the sun onto the
-    footprint plane ``z = -standoff``; each row ``y = y_j`` of the footprint meets each
-    shadow triangle in an interval, found from the two edges that cross it; the union of a
-    row's intervals, clipped to the footprint, is measured exactly, and the rows (midpoints
-    of equal strips) are summed.
+    :func:`shadow_area.blocked_share`: the triangles (of the panel and its copies) projected
+    along the sun onto the footprint plane ``z = -standoff``, each row of the footprint
+    meeting each shadow triangle in an interval, the union of a row's intervals measured
+    exactly, the rows (midpoints of equal strips) summed.
     """
-    run = sun[:2] / sun[2]
-    shadow = vertices[:, :2] - (vertices[:, 2:3] + STANDOFF_M) * run
-    if kind == 'quad':
-        half_y = DEMONSTRATOR_MODULE.width_m / 2
-        area = DEMONSTRATOR_MODULE.length_m * DEMONSTRATOR_MODULE.width_m
-        half_x = DEMONSTRATOR_MODULE.length_m / 2
-    else:
-        half_y = HEXAGON_MODULE.circumradius_m
-        area = 1.5 * math.sqrt(3.0) * HEXAGON_MODULE.circumradius_m**2
-        half_x = math.sqrt(3.0) * HEXAGON_MODULE.circumradius_m / 2
-    reach = np.hypot(half_x, half_y) + np.linalg.norm(shadow, axis=-1).max()
-    triangles = (shadow[faces][None] + lattice(kind, reach)[:, None, None, :]).reshape(-1, 3, 2)
-    low, high = triangles.min(axis=1), triangles.max(axis=1)
-    keep = ((low[:, 0] < half_x) & (high[:, 0] > -half_x) & (low[:, 1] < half_y)
-            & (high[:, 1] > -half_y))
-    triangles, low, high = triangles[keep], low[keep], high[keep]
-    step = 2 * half_y / rows
-    first = np.ceil((low[:, 1] + half_y) / step - 0.5).astype(int).clip(0, rows)
-    last = np.floor((high[:, 1] + half_y) / step - 0.5).astype(int).clip(-1, rows - 1)
-    counts = np.maximum(last - first + 1, 0)
-    owner = np.repeat(np.arange(len(triangles)), counts)
-    row = first[owner] + np.arange(counts.sum()) - np.repeat(np.cumsum(counts) - counts, counts)
-    y = -half_y + (row + 0.5) * step
-    corners = triangles[owner]
-    crossing_low = np.full(y.shape, np.inf)
-    crossing_high = np.full(y.shape, -np.inf)
-    for a, b in ((0, 1), (1, 2), (2, 0)):
-        ya, yb = corners[:, a, 1], corners[:, b, 1]
-        crosses = (ya - y) * (yb - y) < 0.0
-        with np.errstate(divide='ignore', invalid='ignore'):
-            x = corners[:, a, 0] + (y - ya) * (corners[:, b, 0] - corners[:, a, 0]) / (yb - ya)
-        crossing_low = np.where(crosses, np.minimum(crossing_low, x), crossing_low)
-        crossing_high = np.where(crosses, np.maximum(crossing_high, x), crossing_high)
-    edge = footprint_half_width(kind, y)
-    start, end = np.maximum(crossing_low, -edge), np.minimum(crossing_high, edge)
-    valid = end > start
-    return union_length(row[valid], start[valid], end[valid]).sum() * step / area
-
-
-def union_length(group, start, end):
-    """Total length of the union of the intervals ``[start, end]`` of each group."""
-    offset = 8.0 * group  # the intervals lie within [-2, 2] m
-    order = np.lexsort((start, group))
-    start, end = start[order] + offset[order], end[order] + offset[order]
-    reach = np.maximum.accumulate(end)
-    before = np.concatenate([[-np.inf], reach[:-1]])
-    return np.maximum(end - np.maximum(start, before), 0.0)
+    footprint = (shadow_area.quad_footprint(DEMONSTRATOR_MODULE.length_m,
+                                            DEMONSTRATOR_MODULE.width_m) if kind == 'quad'
+                 else shadow_area.hexagon_footprint(HEXAGON_MODULE.circumradius_m))
+    return shadow_area.blocked_share(vertices, faces, footprint, sun, STANDOFF_M, rows=rows)
 
 
 def references(kind, model, shape, sun, rows=ROWS):

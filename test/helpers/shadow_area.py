@@ -78,16 +78,16 @@ def blocked_share(vertices, faces, footprint, sun, standoff_m, tessellated=True,
 
 
 def _union_length(group, start, end):
-    """Total length of the unions of the intervals of each group."""
+    """Total length of the unions of the intervals ``[start, end]`` of each group.
+
+    Sorted by group, then start: an interval adds what reaches past the furthest end before
+    it in its group (the groups are moved apart along the line so that none overlaps the next).
+    """
+    if not len(start):
+        return 0.0
+    spread = 2.0 * max(np.abs(start).max(), np.abs(end).max()) + 1.0
     order = np.lexsort((start, group))
-    group, start, end = group[order], start[order], end[order]
-    total = 0.0
-    reach = -np.inf
-    previous = None
-    for g, s, e in zip(group.tolist(), start.tolist(), end.tolist()):
-        if g != previous:
-            previous, reach = g, -np.inf
-        if e > reach:
-            total += e - max(s, reach)
-            reach = e
-    return total
+    offset = spread * group[order]
+    start, end = start[order] + offset, end[order] + offset
+    before = np.concatenate([[-np.inf], np.maximum.accumulate(end)[:-1]])
+    return float(np.maximum(end - np.maximum(start, before), 0.0).sum())
