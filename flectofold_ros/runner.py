@@ -156,6 +156,19 @@ class Program:
         return None
 
 
+def configure_or_destroy(node, configure):
+    """Run ``configure()`` for a node being built; on any error destroy the node, re-raise.
+
+    A node refused at start (a bad parameter, an unreadable file) would otherwise keep its
+    DDS entities and its name on the graph until the process ends.
+    """
+    try:
+        configure()
+    except Exception:
+        node.destroy_node()
+        raise
+
+
 def run_command(name, body, bad_input=(), interrupted_code=0):
     """Run ``body(stop_signals)`` -> exit code under the policy above, without ROS.
 

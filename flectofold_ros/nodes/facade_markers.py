@@ -26,7 +26,7 @@ from flectofold_ros import contract, panel_states
 from flectofold_ros.interfaces import publisher, subscription
 from flectofold_ros.markers import FacadeMarkers
 from flectofold_ros.parameters import declare_all, double, string
-from flectofold_ros.runner import Program, run_nodes
+from flectofold_ros.runner import configure_or_destroy, Program, run_nodes
 
 USAGE = 'facade_markers [--ros-args -p facade_file:=PATH -p name:=value ...]'
 
@@ -48,11 +48,7 @@ class FacadeMarkersNode(Node):
     def __init__(self, **kwargs):
         super().__init__(contract.MARKERS_NODE, namespace=contract.FACADE_NODE_NAMESPACE,
                          **kwargs)
-        try:
-            self._configure()
-        except Exception:
-            self.destroy_node()
-            raise
+        configure_or_destroy(self, self._configure)
 
     def _configure(self):
         declare_all(self, PARAMETERS)

@@ -20,7 +20,7 @@ from flectofold_model.environment import (epoch_from_iso, SimulatedClock, Site, 
 from flectofold_ros import contract, panel_states
 from flectofold_ros.interfaces import publisher, subscription
 from flectofold_ros.parameters import choice, declare_all, double, integer, string
-from flectofold_ros.runner import Program, run_nodes
+from flectofold_ros.runner import configure_or_destroy, Program, run_nodes
 
 MODES = ('wall', 'simulated')
 #: A tick later than this many periods (a starved process) advances simulated time by this
@@ -84,11 +84,7 @@ class SunPositionNode(Node):
 
     def __init__(self, **kwargs):
         super().__init__(contract.SUN_POSITION_NODE, **kwargs)
-        try:
-            self._configure()
-        except Exception:
-            self.destroy_node()
-            raise
+        configure_or_destroy(self, self._configure)
 
     def _configure(self):
         declare_all(self, PARAMETERS)

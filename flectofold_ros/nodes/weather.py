@@ -18,7 +18,7 @@ from flectofold_model.environment import read_weather, weather_at
 from flectofold_ros import contract
 from flectofold_ros.interfaces import publisher
 from flectofold_ros.parameters import declare_all, double, string
-from flectofold_ros.runner import Program, run_nodes
+from flectofold_ros.runner import configure_or_destroy, Program, run_nodes
 
 NS_PER_S = 10**9
 #: A weather file further than this from the facade's site is warned about [deg of arc].
@@ -54,11 +54,7 @@ class WeatherNode(Node):
 
     def __init__(self, **kwargs):
         super().__init__(contract.WEATHER_NODE, **kwargs)
-        try:
-            self._configure()
-        except Exception:
-            self.destroy_node()
-            raise
+        configure_or_destroy(self, self._configure)
 
     def _configure(self):
         declare_all(self, PARAMETERS)
