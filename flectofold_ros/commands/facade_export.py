@@ -102,6 +102,8 @@ def _write_folded(facade, options, epoch_s):
         closure, source = options.closure, f'closure {options.closure:g}'
     else:
         started = time.perf_counter()
+        print('facade_export: replaying the schedule from the midnight before (shading table '
+              'and every decision: about 15 s)', flush=True)
         closure = scheduled_closure(facade, epoch_s)
         when = datetime.fromtimestamp(epoch_s, timezone.utc).isoformat()
         source = f'scheduled closures at {when} (clear sky)'
