@@ -50,7 +50,8 @@ def to_rrd(options):
     facade = load_facade(options.facade or DEFAULT_FACADE)
     started = time.monotonic()
     counts = convert(options.bag, options.to_rrd, facade, options.color_by,
-                     options.flush_period, topics=options.topics)
+                     options.flush_period, topics=options.topics,
+                     progress=lambda text: print(f'replay: {text}', flush=True))
     print(f'replay: {options.to_rrd}: {counts.meshes_logged} meshes, {counts.samples_logged} '
           f'samples, {counts.events_logged} events, {counts.rejected} rejected, in '
           f'{time.monotonic() - started:.1f} s', flush=True)

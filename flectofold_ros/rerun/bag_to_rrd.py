@@ -8,6 +8,7 @@ the flushes).
 
 from pathlib import Path
 import struct
+import time
 
 from rosbags.serde import SerdeError
 from rosbags.typesys import get_typestore, Stores
@@ -44,7 +45,8 @@ def decode(raw, msgtype, typestore=TYPESTORE):
 
 
 def convert(bag_path, rrd_path, facade, color_by='closure', flush_period_s=1.0,
-            min_change_rad=1e-3, strict=False, topics=None):
+            min_change_rad=1e-3, strict=False, topics=None, progress=None,
+            progress_period_s=5.0):
     """Write ``rrd_path`` from the bag at ``bag_path``; return the scene's counts.
 
     Every published state is kept (the live bridge merges states that arrive between two of
@@ -52,6 +54,7 @@ def convert(bag_path, rrd_path, facade, color_by='closure', flush_period_s=1.0,
     ``topics`` restricts the conversion to some of the bag's topics. The bag must hold
     ``/facade/panel_states`` (``BagError`` otherwise): bags with only the per-panel topics,
     as recorded before it existed, are not supported.
+    ``progress`` is called with a line of text every ``progress_period_s`` of wall time.
     """
     rrd_path = check_rrd_path(rrd_path)
     available = bag_topics(bag_path)
@@ -68,7 +71,12 @@ def convert(bag_path, rrd_path, facade, color_by='closure', flush_period_s=1.0,
     scene = FacadeScene(facade, recording, color_by, min_change_rad, every_state=True)
     scene.log_static()
     flush_ns, next_flush_ns, decode_errors = round(flush_period_s * 1e9), None, 0
-    for topic, msgtype, t_ns, raw in read_messages(bag_path, wanted):
+    say, said = progress or (lambda text: None), time.monotonic()
+    for count, (topic, msgtype, t_ns, raw) in enumerate(read_messages(bag_path, wanted)):
+        if count % 256 == 0 and time.monotonic() - said > progress_period_s:
+            said = time.monotonic()
+            say(f'{count} messages converted, up to '
+                f'{time.strftime("%Y-%m-%d %H:%M:%S UTC", time.gmtime(t_ns / 1e9))}')
         if next_flush_ns is None:
             next_flush_ns = t_ns + flush_ns
         elif t_ns >= next_flush_ns:

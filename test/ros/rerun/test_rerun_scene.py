@@ -511,6 +511,14 @@ def test_a_bag_of_panel_states_converts_to_the_same_scene(tmp_path, facade):
     assert len(rrd.rows('/sun', 'Arrows3D:vectors')) == 3
 
 
+def test_the_conversion_says_how_far_it_has_got(tmp_path, facade):
+    write_bag(tmp_path / 'bag', facade, [contract.PANEL_STATES, contract.SUN])
+    said = []
+    convert(tmp_path / 'bag', tmp_path / 'bag.rrd', facade, progress=said.append,
+            progress_period_s=0.0)
+    assert said and said[0].startswith('0 messages converted, up to ') and 'UTC' in said[0]
+
+
 def test_a_bag_without_panel_states_is_refused_clearly(tmp_path, facade):
     write_bag(tmp_path / 'old', facade, [contract.CLOSURE.of(facade.panel_ids[0]),
                                          contract.SUN])
