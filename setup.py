@@ -18,8 +18,8 @@ setup(
         (os.path.join('share', PACKAGE), ['package.xml']),
         (os.path.join('share', PACKAGE, 'msg_docs'), glob('msg_docs/*.md')),
         (os.path.join('share', PACKAGE, 'launch'), glob('launch/*launch.[pxy][yma]*')),
-        (os.path.join('share', PACKAGE, 'config'), glob('config/*.yaml') + glob('config/*.rviz')
-                                                  + glob('config/*.json')),
+        (os.path.join('share', PACKAGE, 'config'),
+         glob('config/*.yaml') + glob('config/*.rviz') + glob('config/*.json')),
     ],
     # Python dependencies are pinned in requirements.txt (the venv) and named as rosdep keys
     # in package.xml (apt installs); setuptools only needs itself, as for every ament package.

@@ -52,8 +52,14 @@ def exit_with(name, code):
     sys.exit(code)
 
 
-def run(name, args=None):
-    """Run executable ``name`` with ``args`` (``sys.argv`` when None); return its exit code."""
+def run(name, args=None, ending=False):
+    """Run executable ``name`` with ``args`` (``sys.argv`` when None); return its exit code.
+
+    ``ending``: the process ends when this returns (a console script, ``python -m``), so the
+    stop signals stay ignored from the end of ``main`` to the exit
+    (:meth:`~flectofold_ros.runner.StopSignals.leaving`); a caller that goes on gets its
+    handlers back.
+    """
     module_name, stopped_code = EXECUTABLES[name]
     with stop_signals() as stop:
         try:
@@ -72,12 +78,13 @@ def run(name, args=None):
                 return stopped_code
             raise
         finally:
-            stop.leaving()
+            if ending:
+                stop.leaving()
 
 
 def _entry_point(name):
     def main():
-        exit_with(name, run(name))
+        exit_with(name, run(name, ending=True))
     main.__name__ = name
     main.__doc__ = f'Console script ``{name}``.'
     return main

@@ -135,7 +135,7 @@ import os, signal, sys, time
 sys.path.insert(0, sys.argv[1])
 from flectofold_ros import executables
 executables.EXECUTABLES['finished'] = ('finished_module', 130)
-code = executables.run('finished', [])
+code = executables.run('finished', [], ending=True)
 os.kill(os.getpid(), signal.SIGINT)  # Ctrl-C just after the work was done and reported
 os.kill(os.getpid(), signal.SIGTERM)
 time.sleep(0.1)
@@ -157,7 +157,7 @@ import sys
 sys.path.insert(0, sys.argv[1])
 from flectofold_ros import executables
 executables.EXECUTABLES['chatty'] = ('chatty_module', 130)
-sys.exit(executables.run('chatty', []))
+sys.exit(executables.run('chatty', [], ending=True))
 """
 
 
@@ -173,3 +173,13 @@ def test_a_reader_that_leaves_early_ends_the_command_without_a_traceback(tmp_pat
     process.stdout.close()
     error = process.stderr.read()
     assert process.wait(timeout=60) == 1 and 'Traceback' not in error, error
+
+
+def test_an_executable_run_in_process_gives_the_stop_signals_back():
+    """Only a process that ends with the executable keeps them ignored (pytest goes on)."""
+    import signal
+    from flectofold_ros import executables
+    before = signal.getsignal(signal.SIGINT), signal.getsignal(signal.SIGTERM)
+    executables.run('fold_table', ['fold_table', '--steps', '2'])
+    assert (signal.getsignal(signal.SIGINT), signal.getsignal(signal.SIGTERM)) == before
+    assert signal.SIG_IGN not in before
