@@ -188,6 +188,7 @@ async def serve(terminal, host=DEFAULT_HOST, port=0, started=None, stop=None):
     ``started(host, port)`` is called once listening, with the port bound.
     """
     from pymodbus.server import ModbusTcpServer
+    terminal.advance()  # the first plant step loads its compiled kernel: before serving
     server = ModbusTcpServer(_TerminalContext(terminal), address=(host, port))
     try:
         await server.serve_forever(background=True)
