@@ -8,7 +8,7 @@ import subprocess
 import sys
 import threading
 
-EXAMPLE_MAP = Path(__file__).resolve().parents[3] / 'config' / 'modbus_terminal.yaml'
+EXAMPLE_MAP = Path(__file__).resolve().parents[2] / 'config' / 'modbus_terminal.yaml'
 _SERVING = re.compile(r'serving \d+ channel\(s\) of unit \d+ on ([\d.]+):(\d+)')
 
 
