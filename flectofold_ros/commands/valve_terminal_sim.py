@@ -61,6 +61,10 @@ def main(args=None):
             options = parse_arguments(argv)
         except SystemExit as leaving:  # argparse: its message is printed already
             return leaving.code
+        import logging
+        # pymodbus' own warnings (a port in use, a dropped client) would add lines to the
+        # one this program prints; its errors (a request for another unit id) stay.
+        logging.getLogger('pymodbus').setLevel(logging.ERROR)
         from flectofold_model.facade import DEFAULT_FACADE, load_facade
         from flectofold_ros.hardware.register_map import load_register_map
         from flectofold_ros.hardware.terminal_sim import serve, SimulatedTerminal, \

@@ -193,5 +193,10 @@ def test_the_terminal_refuses_bad_input_in_one_line_and_stops_cleanly_on_sigterm
         'unit_id' in lines[0], result.stderr
     terminal = Terminal()
     assert terminal.host == '127.0.0.1'
+    taken = subprocess.run([sys.executable, '-m', 'flectofold_ros', 'valve_terminal_sim',
+                            '--map', str(EXAMPLE_MAP), '--port', str(terminal.port)],
+                           capture_output=True, text=True, timeout=60)
+    assert taken.returncode == 2 and taken.stderr.count('\n') == 1 and \
+        'cannot listen' in taken.stderr, taken
     assert terminal.stop(signal.SIGTERM) == 0
     assert 'Traceback' not in ''.join(terminal.lines)
