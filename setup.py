@@ -49,6 +49,7 @@ setup(
             'replay = flectofold_ros.executables:replay',
             'bag_reindex = flectofold_ros.executables:bag_reindex',
             'facade_export = flectofold_ros.executables:facade_export',
+            'valve_terminal_sim = flectofold_ros.executables:valve_terminal_sim',
         ],
     },
 )

@@ -32,6 +32,7 @@ EXECUTABLES = {
     'replay': ('flectofold_ros.commands.replay', 0),
     'bag_reindex': ('flectofold_ros.commands.bag_reindex', 130),
     'facade_export': ('flectofold_ros.commands.facade_export', 130),
+    'valve_terminal_sim': ('flectofold_ros.commands.valve_terminal_sim', 0),
 }
 
 
@@ -105,3 +106,4 @@ bag_recorder = _entry_point('bag_recorder')
 replay = _entry_point('replay')
 bag_reindex = _entry_point('bag_reindex')
 facade_export = _entry_point('facade_export')
+valve_terminal_sim = _entry_point('valve_terminal_sim')

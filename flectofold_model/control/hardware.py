@@ -24,6 +24,16 @@ class CushionDriver(abc.ABC):
     """True for a driver whose time only passes in :meth:`advance` (a simulation)."""
 
     @property
+    def comms_lost(self):
+        """Whether the last exchange with the valves failed (a fieldbus driver).
+
+        While True the readings are NaN and :meth:`write_valves` writes nothing: the loop
+        latches :attr:`~.pressure_loop.Fault.COMMS_LOST` on every channel. A driver with no
+        link to lose (a simulation) is never lost.
+        """
+        return False
+
+    @property
     @abc.abstractmethod
     def count(self):
         """Number of channels ``N``."""

@@ -30,8 +30,8 @@ FILL_CAPACITY, VENT_CAPACITY, CAPACITANCE, LAST_FILL, LAST_VENT, LIMITED, TARGET
 STATE_ROWS = 22
 # Rows of the codes (2, N) and their values: Fault and SafeAction in pressure_loop.
 FAULT, SAFE_ACTION = 0, 1
-NO_FAULT, SENSOR_STUCK, SENSOR_DROPOUT, LEAK, SUPPLY_LOST, FILL_VALVE_STUCK, OVERPRESSURE = \
-    range(7)
+NO_FAULT, SENSOR_STUCK, SENSOR_DROPOUT, LEAK, SUPPLY_LOST, FILL_VALVE_STUCK, OVERPRESSURE, \
+    COMMS_LOST = range(8)  # COMMS_LOST: latched from outside the kernel (PanelLoops)
 VENT, HOLD = 0, 1
 # Fields of the parameter tuple, in ControllerParameters' order.
 (_MAX, _MARGIN, _RATE, _TAU, _TI, _FILTER, _SUPPLY_FILTER, _STUCK_TIME, _NOISE, _DROPOUT_TIME,

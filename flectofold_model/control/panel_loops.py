@@ -29,7 +29,8 @@ from flectofold_model.actuation.circuit import DEMONSTRATOR_PLANT
 from flectofold_model.actuation.cushion_map import CushionMap
 from flectofold_model.control.decimation import PublishDecimator
 from flectofold_model.control.hardware import CushionDriver, SimulatedCushions
-from flectofold_model.control.pressure_loop import ControllerParameters, PressureController
+from flectofold_model.control.pressure_loop import (ControllerParameters, Fault,
+                                                    PressureController)
 
 #: States a loop keeps for its rows: rows that take them at least this often lose none.
 SAMPLE_HISTORY = 4096
@@ -377,6 +378,8 @@ class PanelLoops:
     def _period(self, dt_s):
         self._rested_setpoint = self._setpoint.copy()
         self.measured_pa = self.driver.read_pressure_pa()
+        if self.driver.comms_lost:  # before the step, which then takes the safe action
+            self.controller.latch_fault(Fault.COMMS_LOST)
         command = self.controller.step(dt_s, self._setpoint, self.measured_pa,
                                        self.driver.read_supply_pa())
         self.driver.write_valves(command.fill_opening, command.vent_opening)

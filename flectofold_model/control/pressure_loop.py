@@ -50,6 +50,10 @@ class Fault(enum.Enum):
     SUPPLY_LOST = 'supply_lost'
     FILL_VALVE_STUCK = 'fill_valve_stuck'
     OVERPRESSURE = 'overpressure'
+    COMMS_LOST = 'comms_lost'
+    """The driver lost its link to the valves (a fieldbus terminal that stopped answering):
+    raised by :class:`~.panel_loops.PanelLoops` from :attr:`~.hardware.CushionDriver.comms_lost`,
+    not by the loop's monitors."""
 
 
 class SafeAction(enum.Enum):
@@ -263,6 +267,19 @@ class PressureController:
             self.state[timer, selected] = 0.0
         for start in (k.LEAK_START, k.INFLOW_START):
             self.state[start, selected] = self.state[k.FILTERED, selected]
+
+    def latch_fault(self, fault, panels=None):
+        """Latch ``fault`` on the selected panels that have none yet; return how many took it.
+
+        For faults found outside the loop (:attr:`Fault.COMMS_LOST`); a latched fault is kept,
+        so the first cause stays named. The safe action follows from the next :meth:`step`.
+        """
+        if not isinstance(fault, Fault) or fault is Fault.NONE:
+            raise ValueError(f'fault must be a Fault other than NONE, got {fault!r}')
+        k = self._kernel
+        selected = self._selection(panels) & (self.codes[k.FAULT] == k.NO_FAULT)
+        self.codes[k.FAULT, selected] = _FAULTS.index(fault)
+        return int(np.count_nonzero(selected))
 
     def _selection(self, panels):
         mask = np.zeros(len(self), dtype=bool)

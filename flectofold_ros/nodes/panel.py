@@ -28,28 +28,38 @@ from rclpy.time import Time
 from sensor_msgs.msg import FluidPressure, JointState, PointCloud2, PointField
 from std_msgs.msg import Float64, String
 
+from flectofold_model.actuation import actuated_like, actuation_model_of
+from flectofold_model.actuation.cushion_map import CushionMap
 from flectofold_model.control import (compile_kernels, ControllerParameters, facade_loops, Fault,
                                       PublishDecimator, SafeAction, SafeBehaviour, SetpointGuard,
                                       SetpointState)
 from flectofold_model.control.hardware import SimulatedCushions
-from flectofold_model.control.panel_loops import LoopSample, panel_indices
+from flectofold_model.control.panel_loops import LoopSample, panel_indices, PanelLoops
 from flectofold_model.facade import DEFAULT_FACADE, load_facade
 from flectofold_model.kinematics.kinds import panel_kind
 from flectofold_ros import contract, diagnostics, panel_states
 from flectofold_ros.fault_injection import FaultInjector, FaultRequestError, parse_request
 from flectofold_ros.interfaces import publisher, service, subscription
-from flectofold_ros.parameters import choice, declare_all, double, string
+from flectofold_ros.parameters import choice, declare_all, double, integer, string
 from flectofold_ros.runner import Program, run_nodes
 
-#: The cushion drivers there are (``hardware``): a driver for real valves adds its name here
-#: and its construction in :func:`build_loops`.
-DRIVERS = ('simulated',)
+#: The cushion drivers there are (``hardware``), each built in :func:`build_loops`:
+#: ``simulated`` (the plant model) and ``modbus`` (a Modbus TCP valve terminal,
+#: ``msg_docs/modbus.md``).
+DRIVERS = ('simulated', 'modbus')
 #: name -> Spec. The loop settings (read-only) must agree between the panel nodes of one
 #: process, since they share one vectorised loop.
 PARAMETERS = {
     'panel_id': string('', 'Panel id rNNcNN; empty: the last token of the namespace'),
     'facade_file': string('', 'Facade description YAML; empty: the embedded demonstrator'),
     'hardware': choice('simulated', 'Cushion driver', DRIVERS),
+    'modbus.map_file': string('', "hardware modbus: the valve terminal's register map YAML "
+                              '(msg_docs/modbus.md)'),
+    'modbus.host': string('127.0.0.1', "hardware modbus: the terminal's host name or address"),
+    'modbus.port': integer(502, "hardware modbus: the terminal's Modbus TCP port", 1, 65535),
+    'modbus.timeout_s': double(
+        0.05, 'hardware modbus: longest wait for a reply [s]; a late one is comms_lost',
+        0.001, 1.0),
     'control_period_s': double(0.1, 'Pressure loop period [s]', 0.01, 1.0),
     'control.time_constant_s': double(
         0.4, 'Closed-loop time constant [s], at least twice control_period_s', 0.02, 10.0),
@@ -75,7 +85,8 @@ PARAMETERS = {
                            'stuck open always vents)', ['vent', 'hold'], read_only=False),
 }
 LOOP_SETTINGS = ('facade_file', 'hardware', 'control_period_s', 'control.time_constant_s',
-                 'control.hold_band_pa', 'simulation.quiet_period_s', 'max_gauge_pressure_pa')
+                 'control.hold_band_pa', 'simulation.quiet_period_s', 'max_gauge_pressure_pa',
+                 'modbus.map_file', 'modbus.host', 'modbus.port', 'modbus.timeout_s')
 #: Longest one loop call works [s, wall clock]: a process that cannot keep up with its clock
 #: still publishes and answers signals between calls.
 MAX_CALL_S = 0.25
@@ -490,8 +501,15 @@ class PanelProcess:
             contract.DIAGNOSTIC_LAST_FAULT_REFUSAL: self.last_fault_refusal,
         }
         level, message = diagnostics.OK, f'{len(self.panels)} panels'
+        statistics = getattr(self.loops.driver, 'statistics', None)
+        if statistics is not None:  # a fieldbus driver: its link and timing
+            figures.update(statistics(self.control_period_s))
+            if self.loops.driver.comms_lost:
+                level, message = diagnostics.ERROR, (
+                    f'{message}; comms lost: {figures["modbus_last_error"]}')
         if self._fault_refusals_since_report:
-            level, message = diagnostics.WARN, (
+            level = max(level, diagnostics.WARN)
+            message = (
                 f'{message}; refused {self._fault_refusals_since_report} fault request(s): '
                 f'{self.last_fault_refusal}')
             self._fault_refusals_since_report = 0
@@ -514,7 +532,7 @@ def build_loops(node, panel_ids, seed=0):
     panel kind.
     """
     settings = {name: node.get_parameter(name).value for name in LOOP_SETTINGS}
-    if settings['hardware'] != 'simulated':  # declare_all refused it: no other driver exists
+    if settings['hardware'] not in DRIVERS:  # declare_all refused it already
         raise ValueError(f'hardware {settings["hardware"]!r}: no such cushion driver')
     facade = load_facade(settings['facade_file'] or DEFAULT_FACADE)
     parameters = ControllerParameters(
@@ -522,12 +540,40 @@ def build_loops(node, panel_ids, seed=0):
         time_constant_s=settings['control.time_constant_s'],
         integral_time_s=4.0 * settings['control.time_constant_s'],
         hold_band_pa=settings['control.hold_band_pa'])
-    loops = facade_loops(facade, panel_ids, settings['control_period_s'], parameters,
-                         seed=seed, quiet_period_s=settings['simulation.quiet_period_s'],
-                         max_call_s=MAX_CALL_S)
+    if settings['hardware'] == 'modbus':
+        loops = _modbus_loops(node, settings, facade, panel_ids, parameters)
+    else:
+        loops = facade_loops(facade, panel_ids, settings['control_period_s'], parameters,
+                             seed=seed, quiet_period_s=settings['simulation.quiet_period_s'],
+                             max_call_s=MAX_CALL_S)
     compile_kernels()  # here, before the panels report ready, not in their first tick
     origins = facade.origin_m[panel_indices(facade, panel_ids)] @ facade.facade_to_enu.T
     return loops, origins, facade.panel_ids, panel_kind(facade.panels[0])
+
+
+def _modbus_loops(node, settings, facade, panel_ids, parameters):
+    """Loops on a Modbus TCP valve terminal, one map channel per panel, in ``panel_ids`` order.
+
+    Real valves run on the wall clock: ``use_sim_time`` is refused.
+    """
+    from flectofold_ros.hardware.modbus_driver import ModbusCushions
+    from flectofold_ros.hardware.register_map import load_register_map
+    if node.get_parameter('use_sim_time').value:
+        raise ValueError('hardware modbus drives real valves on the wall clock: '
+                         'use_sim_time must be false')
+    if not settings['modbus.map_file']:
+        raise ValueError('hardware modbus needs modbus.map_file, the register map '
+                         '(msg_docs/modbus.md)')
+    register_map = load_register_map(settings['modbus.map_file'])
+    if register_map.count != len(panel_ids):
+        raise ValueError(f'{register_map.source} has {register_map.count} channel(s) for '
+                         f'{len(panel_ids)} panel(s) ({_id_span(panel_ids)})')
+    indices = panel_indices(facade, panel_ids)
+    model = actuation_model_of(actuated_like(facade.panels[i]) for i in indices)
+    driver = ModbusCushions(register_map, settings['modbus.host'], settings['modbus.port'],
+                            timeout_s=settings['modbus.timeout_s'])
+    return PanelLoops(model, driver, settings['control_period_s'], parameters,
+                      cushion_map=CushionMap(model))
 
 
 class PanelProgram(Program):

@@ -17,6 +17,8 @@ FILES = {'panel.yaml': panel.PARAMETERS, 'coordinator.yaml': coordinator.PARAMET
          'rerun_bridge.yaml': rerun_bridge.PARAMETERS,
          'bag_recorder.yaml': bag_recorder.PARAMETERS,
          'facade_markers.yaml': facade_markers.PARAMETERS}
+#: Files under config/ that are not parameter files: Modbus register maps.
+REGISTER_MAPS = ('modbus_terminal.yaml',)
 #: rclpy's own parameter, which every node has.
 BUILT_IN = {'use_sim_time': ParameterType.PARAMETER_BOOL}
 PYTHON_TYPES = {ParameterType.PARAMETER_BOOL: bool, ParameterType.PARAMETER_DOUBLE: float,
@@ -25,7 +27,14 @@ PYTHON_TYPES = {ParameterType.PARAMETER_BOOL: bool, ParameterType.PARAMETER_DOUB
 
 
 def test_every_config_file_is_checked_here():
-    assert sorted(path.name for path in CONFIG.glob('*.yaml')) == sorted(FILES)
+    assert sorted(path.name for path in CONFIG.glob('*.yaml')) == sorted(
+        [*FILES, *REGISTER_MAPS])
+
+
+@pytest.mark.parametrize('name', REGISTER_MAPS)
+def test_a_register_map_under_config_loads(name):
+    from flectofold_ros.hardware.register_map import load_register_map
+    assert load_register_map(CONFIG / name).count >= 1
 
 
 @pytest.mark.parametrize('name', sorted(FILES))

@@ -208,3 +208,18 @@ def test_a_maximum_above_the_relief_valve_is_refused():
     with pytest.raises(ValueError, match='must stay below the relief valve'):
         PressureController(demonstrator_map(1), DEMONSTRATOR_PLANT,
                            ControllerParameters(max_gauge_pa=20e3))
+
+
+def test_a_fault_latched_from_outside_takes_the_safe_action_and_keeps_a_first_cause():
+    from flectofold_model.actuation import ActuationModel, CushionMap, DEMONSTRATOR_ACTUATED
+    from flectofold_model.actuation.circuit import DEMONSTRATOR_PLANT
+    from flectofold_model.control import Fault, PressureController
+    cushion_map = CushionMap(ActuationModel([DEMONSTRATOR_ACTUATED] * 2), samples=5)
+    controller = PressureController(cushion_map, DEMONSTRATOR_PLANT)
+    controller.codes[0, 1] = list(Fault).index(Fault.LEAK)
+    assert controller.latch_fault(Fault.COMMS_LOST) == 1
+    assert list(controller.fault) == [Fault.COMMS_LOST, Fault.LEAK]
+    command = controller.step(0.1, [1.0, 1.0], [np.nan, np.nan], [np.nan, np.nan])
+    assert list(command.fill_opening) == [0.0, 0.0] and list(command.vent_opening) == [1.0, 1.0]
+    with pytest.raises(ValueError, match='other than NONE'):
+        controller.latch_fault(Fault.NONE)

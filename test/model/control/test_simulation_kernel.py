@@ -115,5 +115,5 @@ def test_the_kernel_fault_codes_are_the_faults_in_order():
              'SENSOR_DROPOUT': loop_kernel.SENSOR_DROPOUT, 'LEAK': loop_kernel.LEAK,
              'SUPPLY_LOST': loop_kernel.SUPPLY_LOST,
              'FILL_VALVE_STUCK': loop_kernel.FILL_VALVE_STUCK,
-             'OVERPRESSURE': loop_kernel.OVERPRESSURE}
+             'OVERPRESSURE': loop_kernel.OVERPRESSURE, 'COMMS_LOST': loop_kernel.COMMS_LOST}
     assert [fault.name for fault in Fault] == sorted(codes, key=codes.get)

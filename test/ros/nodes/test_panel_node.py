@@ -254,7 +254,7 @@ def test_a_cushion_driver_that_does_not_exist_is_refused_at_start(executable, ar
     lines = output.strip().splitlines()
     assert len(lines) == 1 and 'Traceback' not in output, output
     assert lines[0].startswith(f'{executable}: parameter hardware=') and \
-        lines[0].endswith('must be one of simulated'), output
+        lines[0].endswith('must be one of simulated, modbus'), output
 
 
 @pytest.mark.parametrize('group_name', [None, 'panel_group_test'])
