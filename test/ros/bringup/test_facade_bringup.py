@@ -1,5 +1,6 @@
 """The facade bringup as a user runs it: a short day to the summary, and Ctrl-C."""
 
+from pathlib import Path
 import signal
 import subprocess
 import time
@@ -139,3 +140,18 @@ def test_bad_options_are_refused_with_a_reason(small_facade_file, arguments, mes
     finally:
         graph.close()
     assert run.returncode == 2 and message in output and 'Traceback' not in output, output
+
+
+def test_the_obj_example_from_cad_runs_through_a_day():
+    """A surface from CAD (examples/: an OBJ quad mesh, one quad per panel) drives a day."""
+    example = Path(__file__).resolve().parents[3] / 'examples' / 'obj_cylinder_4x3.yaml'
+    graph = Graph(domain_for(28))
+    try:
+        bringup = graph.start('facade', '--facade', str(example), '--start', '13:00',
+                              '--end', '13:20', '--speedup', '120', '--panel-processes', '1')
+        output, _ = bringup.communicate(timeout=240)
+    finally:
+        graph.close()
+    assert bringup.returncode == 0 and 'Traceback' not in output, output
+    assert 'panels reporting: 12/12' in output, output
+    assert 'panels in setpoint timeout 0' in output, output
