@@ -556,20 +556,24 @@ def compile_kernels():
 
 
 def facade_loops(facade, panel_ids, control_period_s=0.1, parameters=ControllerParameters(),
-                 circuit=DEMONSTRATOR_PLANT, seed=0, quiet_period_s=None, max_call_s=None):
+                 circuit=DEMONSTRATOR_PLANT, seed=0, quiet_period_s=None, max_call_s=None,
+                 driver=None):
     """Build :class:`PanelLoops` for some panels of a facade on one simulated circuit.
 
     Each panel is actuated like its kind's preset module (the quad demonstrator or the
     hexagonal module, see :func:`~flectofold_model.actuation.kinds.actuated_like`);
     ``panel_ids`` must name panels of ``facade`` (``ValueError`` lists what is there
     otherwise). The plant is the compiled engine (``PneumaticPlant(integrator='embedded')``);
-    panels of one module geometry share one static table.
+    panels of one module geometry share one static table. ``driver``: a
+    :class:`CushionDriver` with one channel per panel instead (real valves; ``circuit`` and
+    ``seed`` are then unused).
     """
     indices = panel_indices(facade, panel_ids)
     model = actuation_model_of(actuated_like(facade.panels[i]) for i in indices)
     cushion_map = CushionMap(model)
-    driver = SimulatedCushions(PneumaticPlant(circuit, cushion_map, len(indices), seed=seed,
-                                              integrator='embedded'))
+    if driver is None:
+        driver = SimulatedCushions(PneumaticPlant(circuit, cushion_map, len(indices),
+                                                  seed=seed, integrator='embedded'))
     return PanelLoops(model, driver, control_period_s, parameters,
                       quiet_period_s=quiet_period_s, cushion_map=cushion_map,
                       max_call_s=max_call_s)

@@ -28,13 +28,11 @@ from rclpy.time import Time
 from sensor_msgs.msg import FluidPressure, JointState, PointCloud2, PointField
 from std_msgs.msg import Float64, String
 
-from flectofold_model.actuation import actuated_like, actuation_model_of
-from flectofold_model.actuation.cushion_map import CushionMap
 from flectofold_model.control import (compile_kernels, ControllerParameters, facade_loops, Fault,
                                       PublishDecimator, SafeAction, SafeBehaviour, SetpointGuard,
                                       SetpointState)
 from flectofold_model.control.hardware import SimulatedCushions
-from flectofold_model.control.panel_loops import LoopSample, panel_indices, PanelLoops
+from flectofold_model.control.panel_loops import LoopSample, panel_indices
 from flectofold_model.facade import DEFAULT_FACADE, load_facade
 from flectofold_model.kinematics.kinds import panel_kind
 from flectofold_ros import contract, diagnostics, panel_states
@@ -568,12 +566,10 @@ def _modbus_loops(node, settings, facade, panel_ids, parameters):
     if register_map.count != len(panel_ids):
         raise ValueError(f'{register_map.source} has {register_map.count} channel(s) for '
                          f'{len(panel_ids)} panel(s) ({_id_span(panel_ids)})')
-    indices = panel_indices(facade, panel_ids)
-    model = actuation_model_of(actuated_like(facade.panels[i]) for i in indices)
     driver = ModbusCushions(register_map, settings['modbus.host'], settings['modbus.port'],
                             timeout_s=settings['modbus.timeout_s'])
-    return PanelLoops(model, driver, settings['control_period_s'], parameters,
-                      cushion_map=CushionMap(model))
+    return facade_loops(facade, panel_ids, settings['control_period_s'], parameters,
+                        driver=driver)
 
 
 class PanelProgram(Program):
