@@ -568,15 +568,28 @@ def facade_loops(facade, panel_ids, control_period_s=0.1, parameters=ControllerP
     :class:`CushionDriver` with one channel per panel instead (real valves; ``circuit`` and
     ``seed`` are then unused).
     """
-    indices = panel_indices(facade, panel_ids)
-    model = actuation_model_of(actuated_like(facade.panels[i]) for i in indices)
-    cushion_map = CushionMap(model)
+    model, cushion_map = facade_actuation(facade, panel_ids)
     if driver is None:
-        driver = SimulatedCushions(PneumaticPlant(circuit, cushion_map, len(indices),
-                                                  seed=seed, integrator='embedded'))
+        driver = SimulatedCushions(facade_plant(model, cushion_map, circuit, seed))
     return PanelLoops(model, driver, control_period_s, parameters,
                       quiet_period_s=quiet_period_s, cushion_map=cushion_map,
                       max_call_s=max_call_s)
+
+
+def facade_actuation(facade, panel_ids):
+    """Return the actuation model and its cushion map for ``panel_ids`` of ``facade``.
+
+    Each panel is actuated like its kind's preset module
+    (:func:`~flectofold_model.actuation.kinds.actuated_like`).
+    """
+    indices = panel_indices(facade, panel_ids)
+    model = actuation_model_of(actuated_like(facade.panels[i]) for i in indices)
+    return model, CushionMap(model)
+
+
+def facade_plant(model, cushion_map, circuit=DEMONSTRATOR_PLANT, seed=0):
+    """Return the simulated plant of ``model``'s panels on the compiled engine, a channel each."""
+    return PneumaticPlant(circuit, cushion_map, len(model), seed=seed, integrator='embedded')
 
 
 def panel_indices(facade, panel_ids):

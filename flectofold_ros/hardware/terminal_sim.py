@@ -18,10 +18,9 @@ from pymodbus.constants import ExcCodes
 from pymodbus.datastore import ModbusServerContext
 from pymodbus.exceptions import NoSuchIdException
 
-from flectofold_model.actuation import actuated_like, actuation_model_of, PneumaticPlant
+from flectofold_model.actuation import PneumaticPlant
 from flectofold_model.actuation.circuit import DEMONSTRATOR_PLANT
-from flectofold_model.actuation.cushion_map import CushionMap
-from flectofold_model.control.panel_loops import panel_indices
+from flectofold_model.control.panel_loops import facade_actuation, facade_plant
 
 #: Address the simulator listens on unless told otherwise: this host only.
 DEFAULT_HOST = '127.0.0.1'
@@ -176,10 +175,7 @@ def terminal_plant(register_map, facade, panel_ids=None, circuit=DEMONSTRATOR_PL
     if len(panel_ids) != register_map.count:
         raise ValueError(f'{register_map.source} has {register_map.count} channel(s) for '
                          f'{len(panel_ids)} panel(s)')
-    indices = panel_indices(facade, panel_ids)
-    model = actuation_model_of(actuated_like(facade.panels[i]) for i in indices)
-    return PneumaticPlant(circuit, CushionMap(model), len(indices), seed=seed,
-                          integrator='embedded')
+    return facade_plant(*facade_actuation(facade, panel_ids), circuit, seed)
 
 
 async def serve(terminal, host=DEFAULT_HOST, port=0, started=None, stop=None):
