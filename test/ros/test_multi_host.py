@@ -39,6 +39,20 @@ PANEL_SIDE, PEER_SIDE = 0, 1
 SETPOINT, PASSED = 0.8, 0.3
 #: How long the link stays down, after a grace period for what was already on its way.
 DOWN_GRACE_S, DOWN_S = 1.0, 3.0
+#: Run inside a namespace: wait until interface argv[1] has IFF_RUNNING (0x40), the flag
+#: getifaddrs() reports, read with SIOCGIFFLAGS (0x8913); give up after argv[2] seconds.
+WAIT_RUNNING = """
+import fcntl, socket, struct, sys, time
+name, deadline = sys.argv[1].encode(), time.monotonic() + float(sys.argv[2])
+probe = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+while True:
+    request = fcntl.ioctl(probe, 0x8913, struct.pack('16sH14x', name, 0))
+    if struct.unpack('16sH14x', request)[1] & 0x40:
+        sys.exit(0)
+    if time.monotonic() > deadline:
+        sys.exit(f'{sys.argv[1]} not running after {sys.argv[2]} s')
+    time.sleep(0.02)
+"""
 
 
 def _ip(*arguments):
@@ -86,9 +100,21 @@ class Link:
             self._veth(self.veths[0], self.namespaces[0], self.veths[1], self.namespaces[1])
         for side in (PANEL_SIDE, PEER_SIDE):
             self._configure(self.namespaces[side], self.veths[side], f'{self.addresses[side]}/24')
-            if self.routed:
-                gateway = f'{self.addresses[side].rsplit(".", 1)[0]}.254'
-                self._step(self.namespaces[side], 'route', 'add', 'default', 'via', gateway)
+            self._route(side)
+        for side in (PANEL_SIDE, PEER_SIDE):
+            self.wait_running(side)
+
+    def wait_running(self, side, timeout_s=10.0):
+        """Wait until side ``side``'s veth is RUNNING, as a host's interface is before ROS starts.
+
+        The kernel sets IFF_RUNNING about a second after a new veth comes up (its link watch
+        is rate-limited), and Fast DDS lists only running interfaces when a participant
+        starts: one started earlier sees loopback alone, announces 127.0.0.1 as its address
+        and takes its host id from it, and its peer sends discovery to its own loopback.
+        """
+        result = self.run(side, sys.executable, '-c', WAIT_RUNNING, self.veths[side],
+                          str(timeout_s))
+        assert result.returncode == 0, result.stdout + result.stderr
 
     def delete(self):
         for namespace in self.made:  # a namespace takes its ends of the veths with it
@@ -103,8 +129,9 @@ class Link:
 
     @staticmethod
     def _sh(namespace, script):
-        subprocess.run(['ip', 'netns', 'exec', namespace, 'sh', '-c', script],
-                       capture_output=True, timeout=20)
+        result = subprocess.run(['ip', 'netns', 'exec', namespace, 'sh', '-c', script],
+                                capture_output=True, text=True, timeout=20)
+        assert result.returncode == 0, (namespace, script, result.stderr)
 
     @staticmethod
     def _step(namespace, *step):
@@ -127,12 +154,34 @@ class Link:
                 counts[side, name] = int(self.run(side, 'cat', statistics).stdout)
         return counts
 
+    def _route(self, side):
+        """Give a routed side its default route through the router (one subnet needs none)."""
+        if self.routed:
+            gateway = f'{self.addresses[side].rsplit(".", 1)[0]}.254'
+            self._step(self.namespaces[side], 'route', 'replace', 'default', 'via', gateway)
+
     def set_up(self, side, up):
         self._step(self.namespaces[side], 'link', 'set', self.veths[side],
                    'up' if up else 'down')
-        if up and self.routed:  # the default route went with the link
-            gateway = f'{self.addresses[side].rsplit(".", 1)[0]}.254'
-            self._step(self.namespaces[side], 'route', 'replace', 'default', 'via', gateway)
+        if up:  # the link's routes went with it
+            self._route(side)
+            self.wait_running(side)
+
+    def report(self):
+        """Describe both sides' networks as they are now, for a failure's message."""
+        lines = []
+        for side in (PANEL_SIDE, PEER_SIDE):
+            for command in (('ip', '-s', 'link', 'show', self.veths[side]), ('ip', 'route'),
+                            ('ss', '-uan')):
+                result = self.run(side, *command)
+                lines += [f'--- {self.namespaces[side]}: {" ".join(command)}',
+                          result.stdout.strip() or result.stderr.strip()]
+        if self.routed:
+            forwarding = subprocess.run(
+                ['ip', 'netns', 'exec', self.router, 'cat', '/proc/sys/net/ipv4/ip_forward'],
+                capture_output=True, text=True, timeout=20)
+            lines.append(f'--- {self.router}: ip_forward {forwarding.stdout.strip()}')
+        return '\n'.join(lines)
 
 
 @pytest.fixture(params=['multicast', 'static_peers'])
@@ -142,7 +191,7 @@ def link(request):
         pytest.skip('needs root: it creates network namespaces (ip netns add)')
     if shutil.which('ip') is None:
         pytest.skip("needs iproute2's ip command")
-    link = Link(f'ff{os.getpid()}', request.param)
+    link = Link(f'ff{os.getpid()}{request.param[0]}', request.param)
     try:
         link.create()
         yield link
@@ -270,7 +319,7 @@ def test_states_and_setpoints_cross_the_link_between_two_hosts(link):
         # setpoint has been sent.
         assert peer.wait_for(lambda: samples.every_panel_has('status', 'closure',
                                                              'joint_states'), 30.0), \
-            (peer.output(), panels.output())
+            (peer.output(), panels.output(), link.counters(), link.report())
         discovered_s = time.monotonic() - started
         for panel in PANELS:
             assert samples.of('status', panel)[0]['value'] == 'waiting_for_setpoint'
