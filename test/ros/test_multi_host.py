@@ -140,7 +140,9 @@ class Link:
 
     def _configure(self, namespace, veth, address):
         # No IPv6 on the veth: its neighbour discovery would add packets that are not DDS.
-        self._sh(namespace, f'echo 1 > /proc/sys/net/ipv6/conf/{veth}/disable_ipv6')
+        # (A kernel without IPv6 has no such file, and nothing to turn off.)
+        self._sh(namespace, f'f=/proc/sys/net/ipv6/conf/{veth}/disable_ipv6; '
+                            '[ ! -e $f ] || echo 1 > $f')
         for step in (('addr', 'add', address, 'dev', veth), ('link', 'set', 'lo', 'up'),
                      ('link', 'set', veth, 'up')):
             self._step(namespace, *step)
