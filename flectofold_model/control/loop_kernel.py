@@ -33,6 +33,8 @@ FAULT, SAFE_ACTION = 0, 1
 NO_FAULT, SENSOR_STUCK, SENSOR_DROPOUT, LEAK, SUPPLY_LOST, FILL_VALVE_STUCK, OVERPRESSURE, \
     COMMS_LOST = range(8)  # COMMS_LOST: latched from outside the kernel (PanelLoops)
 VENT, HOLD = 0, 1
+#: A reference at or below this [Pa gauge] is the open (vented) position: the loop never fills.
+OPEN_REFERENCE_PA = 1.0
 # Fields of the parameter tuple, in ControllerParameters' order.
 (_MAX, _MARGIN, _RATE, _TAU, _TI, _FILTER, _SUPPLY_FILTER, _STUCK_TIME, _NOISE, _DROPOUT_TIME,
  _LEAK_TIME, _LEAK_ERROR, _SUPPLY_MARGIN, _SUPPLY_TIME, _HOLD_BAND) = range(15)
@@ -150,12 +152,16 @@ def _regulate(i, dt_s, previous_reference, supply_pa, state, parameters, circuit
                                critical_ratio, temperature_scale)
     state[FILL_CAPACITY, i] = fill_capacity if can_fill else 0.0
     state[VENT_CAPACITY, i], state[CAPACITANCE, i] = vent_capacity, capacitance
-    fill_wish = demand / fill_capacity if demand > 0 and can_fill else 0.0
+    # A vented cushion cannot go below the atmosphere, so at the open reference a reading below
+    # it is sensor noise or offset: filling on it would put air into a panel meant to lie flat
+    # (seen: a storm position held at 150 Pa after a noisy reading of -70 Pa).
+    vented = reference <= OPEN_REFERENCE_PA
+    fill_wish = demand / fill_capacity if demand > 0 and can_fill and not vented else 0.0
     vent_wish = -demand / vent_capacity if demand < 0 else 0.0
     saturated = (fill_wish > 1.0 and error > 0) or (vent_wish > 1.0 and error < 0)
     target = state[TARGET, i]
     resting = reference == target and abs(target - pressure) < parameters[_HOLD_BAND]
-    if not (saturated or resting):
+    if not (saturated or resting or (vented and error > 0)):
         state[INTEGRAL, i] += error * dt_s
     if resting:
         return 0.0, 0.0

@@ -22,7 +22,12 @@ Structure (vectorised over panels, one call per control tick):
    ``OVERPRESSURE`` and vents whatever else is going on, so that with a vent valve that
    out-flows the fill valve even a fill valve jammed open cannot take the cushion past the
    maximum.
-6. **Faults.** :class:`Fault` names each detected fault. A faulted panel latches its fault
+6. **The open reference never fills.** At a reference of at most
+   :data:`~.loop_kernel.OPEN_REFERENCE_PA` (closure 0: vented, flat) the fill valve stays shut
+   and the integral does not wind up on readings below the atmosphere: a vented cushion cannot
+   be below it, so such a reading is sensor noise or offset, and filling on it would leave the
+   panel part-closed (the storm position included).
+7. **Faults.** :class:`Fault` names each detected fault. A faulted panel latches its fault
    until :meth:`PressureController.reset_faults` and takes its safe action: vent (the panel
    springs open) or, where asked for a storm position, hold (both valves shut).
 """
