@@ -1179,7 +1179,19 @@ def fanout(result, commander_log, callback_logs, count):
             'from_publish_p50_ms': q50, 'from_publish_p99_ms': q99,
             'burst_complete_max_ms': max(complete) * 1e3 if complete else None,
             'commander_burst_ms': (float(np.mean([burst_ends[b] - bursts[b] for b in in_phase]))
-                                   * 1e-6 if in_phase else None)}
+                                   * 1e-6 if in_phase else None),
+            'per_burst': [_burst_figures(burst, [m for m in mine if m[0] == burst],
+                                         sum(1 for b, *_ in sent if b == burst))
+                          for burst in sorted(in_phase)]}
+
+
+def _burst_figures(burst, matched, sent):
+    """One burst's fan-out: received, p50/p99/max from its start, and setpoints later than 1 s."""
+    latencies = [(t_cb - t0) * 1e-9 for _, t0, _, t_cb in matched]
+    p50, p99 = _percentiles_ms(latencies)
+    return {'burst': burst, 'sent': sent, 'received': len(matched), 'p50_ms': p50,
+            'p99_ms': p99, 'max_ms': max(latencies) * 1e3 if latencies else None,
+            'later_than_1s': sum(latency > 1.0 for latency in latencies)}
 
 
 # == the table ==================================================================================
