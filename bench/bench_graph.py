@@ -170,7 +170,7 @@ def probe_main(argv):
     stamps = {}  # key -> (received [ns], sent [ns], sequence) in the window (facade topics)
     state = {'window': False, 'heard_states': set(), 'heard_closure': set(), 'startup': None,
              'mode': None, 'points': {}, 'states_bad': 0, 'tick': {}, 'diag_messages': 0,
-             'behind_max_s': 0.0, 'flaps': {}, 'drop_fallback': False}
+             'behind_max_s': 0.0, 'flaps': {}, 'drop_fallback': False, 'bridge': []}
     fallback = []
 
     def arrived(key, info=None, now=None):
@@ -221,8 +221,14 @@ def probe_main(argv):
             arrived(('joint_states', process), info, now)
 
     def on_diagnostics(message):
+        now = time.monotonic_ns()
         state['diag_messages'] += state['window']
         for status in message.status:
+            if status.hardware_id == contract.RERUN_BRIDGE_NODE and state['window']:
+                counts = {v.key: v.value for v in status.values}
+                state['bridge'].append((now, int(counts['meshes_logged']),
+                                        int(counts['panels_remeshed'])))
+                continue
             found = {}
             for value in status.values:
                 if value.key in ('tick_jitter_p50_s', 'tick_jitter_p99_s', 'behind_by_s'):
@@ -310,7 +316,8 @@ def probe_main(argv):
                 with lock:
                     arrivals.clear()
                     stamps.clear()
-                    state.update(window=True, tick={}, diag_messages=0, behind_max_s=0.0)
+                    state.update(window=True, tick={}, diag_messages=0, behind_max_s=0.0,
+                                 bridge=[])
                     window_start = time.monotonic_ns()
                 _emit(event='window', t_ns=window_start)
             elif command == 'report':
@@ -370,7 +377,22 @@ def probe_report(arrivals, stamps, state, sample, start_ns, end_ns):
     return {'window_s': window_s, 'processes': processes, 'per_panel': per_panel,
             'sample': len(sample), 'tick_jitter': state['tick'],
             'diagnostics_hz': state['diag_messages'] / window_s,
-            'behind_max_s': state['behind_max_s'], 'panel_states_bad': state['states_bad']}
+            'behind_max_s': state['behind_max_s'], 'panel_states_bad': state['states_bad'],
+            'bridge': _bridge_rates(state['bridge'])}
+
+
+def _bridge_rates(reports):
+    """Return the Rerun bridge's facade meshes and panel re-meshes per second in the window.
+
+    Between its first and last ``/diagnostics`` report there (``(t_ns, meshes, panels)``,
+    1 Hz); None with fewer than two.
+    """
+    if len(reports) < 2:
+        return None
+    (t0, meshes0, panels0), (t1, meshes1, panels1) = reports[0], reports[-1]
+    span_s = (t1 - t0) * 1e-9
+    return {'span_s': span_s, 'facade_meshes_per_s': (meshes1 - meshes0) / span_s,
+            'panels_remeshed_per_s': (panels1 - panels0) / span_s}
 
 
 def _rate(arrivals_ns, window_s):
@@ -1332,8 +1354,13 @@ def observer_lines(configs):
                      + (f': {panels["observer_error"]}' if panels.get('observer_error') else ''))
         for name, summary in (panels.get('observers') or {}).items():
             usage = (observed or {}).get('observers', {}).get(name, {})
+            rates = ((observed or {}).get('probe') or {}).get('bridge') \
+                if name == 'rerun_bridge' else None
+            in_window = (f'in the window {_fmt(rates["facade_meshes_per_s"], ".1f")} facade '
+                         f'meshes/s ({_fmt(rates["panels_remeshed_per_s"], ".0f")} panels '
+                         're-meshed/s); ') if rates else ''
             lines.append(f'  - `{name}`: {_fmt(usage.get("cores"))} cores, '
-                         f'{_fmt(usage.get("rss_mib"), ".0f")} MiB; stop '
+                         f'{_fmt(usage.get("rss_mib"), ".0f")} MiB; {in_window}stop '
                          f'{_fmt(summary.get("stop_s"), ".1f", "killed")} s; '
                          + ' / '.join(f'`{line}`' for line in summary['lines']))
     return ['', '## Observers (phase `observed`)', '', *lines] if lines else []
