@@ -18,6 +18,8 @@ at its output, not the terminal's noisy input), so it holds the setpoint without
 
 import numpy as np
 
+from flectofold_model.actuation import ATMOSPHERIC_PRESSURE_PA
+
 #: The regulator's own closed-loop time constant [s]: a small valve's step response.
 TIME_CONSTANT_S = 0.05
 
@@ -39,8 +41,10 @@ def regulator_openings(plant, setpoint_gauge_pa, time_constant_s=TIME_CONSTANT_S
     count, circuit = plant.count, plant.parameters
     pressure = plant.absolute_pressure_pa
     shut, wide = np.zeros(count), np.ones(count)
-    rising = plant.rates(pressure, wide * circuit.fill_conductance_m3_s_pa, shut)[0]
-    falling = plant.rates(pressure, shut, wide * circuit.vent_conductance_m3_s_pa)[0]
+    capacitance = plant.capacitance_m3(np.maximum(pressure, ATMOSPHERIC_PRESSURE_PA))
+    rising = plant.rates(pressure, wide * circuit.fill_conductance_m3_s_pa, shut, capacitance)[0]
+    falling = plant.rates(pressure, shut, wide * circuit.vent_conductance_m3_s_pa,
+                          capacitance)[0]
     wanted_pa_s = (setpoint - plant.gauge_pressure_pa) / time_constant_s
     fill = np.where((wanted_pa_s > 0.0) & (rising > 0.0),
                     wanted_pa_s / np.where(rising > 0.0, rising, 1.0), 0.0)
