@@ -151,6 +151,8 @@ def test_a_facade_tracks_through_pressure_regulators_set_to_its_targets():
     (['-p', f'modbus.map_file:={EXAMPLE_MAP}', '-p', 'modbus.port:=0'], 'modbus.port'),
     (['-p', f'modbus.map_file:={EXAMPLE_MAP}', '-p', 'modbus.host:=a b'], 'modbus host'),
     (['-p', f'modbus.map_file:={EXAMPLE_MAP}', '-p', 'use_sim_time:=true'], 'wall clock'),
+    (['-p', f'modbus.map_file:={REGULATOR_MAP}', '-p', 'control.hold_band_pa:=0.0'],
+     'hold_band_pa > 0'),
 ])
 def test_bad_modbus_settings_are_refused_at_start_in_one_line(arguments, reason):
     graph = Graph(domain_for(27))
