@@ -179,31 +179,30 @@ def test_the_terminal_side_takes_only_counts_in_each_outputs_range():
     assert not register_map.outputs_take(12, [0, 0])  # address 13 is no output
 
 
-@pytest.mark.parametrize('change, key, why', [
-    (lambda c: c.update(fill=13), 'channels\\[1\\].fill', 'absent beside a regulator'),
-    (lambda c: c.pop('regulator'), 'channels\\[1\\].fill', 'missing.*or a regulator'),
-    (lambda c: c['regulator'].update(address=11), 'channels\\[1\\].regulator.address',
+@pytest.mark.parametrize('change, message', [
+    (lambda c: c.update(fill=13), 'channels\\[1\\].fill must be absent beside a regulator'),
+    (lambda c: c.pop('regulator'), 'channels\\[1\\].fill is missing .*or a regulator'),
+    (lambda c: c['regulator'].update(address=11), 'channels\\[1\\].regulator.address must be '
      'an address of its own, not that of channels\\[0\\].vent'),
-    (lambda c: c['regulator'].update(address=13), 'channels', 'contiguous'),
-    (lambda c: c['regulator'].update(gauge_offset_pa=10.0), 'channels\\[1\\].regulator.min_count',
-     'at most 0 Pa gauge'),
+    (lambda c: c['regulator'].update(address=13), 'channels must be one contiguous block'),
+    (lambda c: c['regulator'].update(gauge_offset_pa=10.0),
+     'channels\\[1\\].regulator.min_count must be a count of at most 0 Pa gauge'),
     (lambda c: c['regulator'].update(gauge_offset_pa=-30000.0),
-     'channels\\[1\\].regulator.max_count', 'above 0 Pa gauge'),
+     'channels\\[1\\].regulator.max_count must be a count above 0 Pa gauge'),
     (lambda c: c['regulator'].update(gauge_pa_per_count=0.0),
-     'channels\\[1\\].regulator.gauge_pa_per_count', 'number in'),
+     'channels\\[1\\].regulator.gauge_pa_per_count must be a number in'),
     (lambda c: c['regulator'].pop('gauge_pa_per_count'),
-     'channels\\[1\\].regulator.gauge_pa_per_count', 'missing'),
-    (lambda c: c['regulator'].update(pa_per_count=2.0), 'channels\\[1\\].regulator.pa_per_count',
-     'unknown key'),
+     'channels\\[1\\].regulator.gauge_pa_per_count is missing'),
+    (lambda c: c['regulator'].update(pa_per_count=2.0),
+     'unknown key channels\\[1\\].regulator.pa_per_count'),
     (lambda c: c['regulator'].update(min_count=9, max_count=9),
-     'channels\\[1\\].regulator.max_count', 'more than'),
-    (lambda c: c.update(regulator=12), 'channels\\[1\\].regulator', 'a mapping'),
+     'channels\\[1\\].regulator.max_count must be more than'),
+    (lambda c: c.update(regulator=12), 'channels\\[1\\].regulator must be a mapping'),
 ])
-def test_a_malformed_regulator_channel_is_refused_naming_the_key(change, key, why):
+def test_a_malformed_regulator_channel_is_refused_naming_the_key(change, message):
     document = _regulated()
     change(document['channels'][1])
-    with pytest.raises(RegisterMapError, match=f'map.yaml: .*{key}.*{why}|'
-                                               f'map.yaml: unknown key {key}'):
+    with pytest.raises(RegisterMapError, match=f'^map.yaml: {message}'):
         parse(document, 'map.yaml')
 
 
