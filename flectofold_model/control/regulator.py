@@ -12,9 +12,8 @@ its feedback and its fault monitors; what reaches the regulator is its setpoint,
   ``[0, max_gauge_pa]``: the regulator moves the cushion no faster than valves would be
   asked to, and never toward a target the supply or the maximum rules out.
 - **Vent** (a latched fault whose safe action is vent, a fill valve stuck open, an
-  over-pressure, or the filtered pressure past ``max_gauge_pa - pressure_margin_pa``):
-  0 Pa, and the regulator exhausts the cushion. Wherever the loop would open the vent valve
-  on a fault, the setpoint is 0.
+  over-pressure until a margin below the limit): 0 Pa, and the regulator exhausts the
+  cushion. Wherever the loop would open the vent valve on a fault, the setpoint is 0.
 - **Hold** (a latched fault whose safe action is hold): the setpoint stays at the last one
   sent before the fault, the pressure the cushion had, not the target the reference goes on
   toward. After a comms loss the terminal's own fail-safe may have exhausted the regulator
@@ -80,10 +79,8 @@ class RegulatorSetpoints:
         self._lower_hold_after_comms_loss(fault == _COMMS_LOST, readable, measured_pa)
         setpoint = np.where(readable, np.clip(controller.reference_gauge_pa, 0.0,
                                               parameters.max_gauge_pa), self.gauge_pa)
-        over = readable & (controller.filtered_gauge_pa
-                           > parameters.max_gauge_pa - parameters.pressure_margin_pa)
-        setpoint[over] = 0.0
-        # On a fault the loop's vent opening is exactly 1 (vent) or 0 (hold).
+        # On a fault the loop's vent opening is exactly 1 (vent, over-pressure included) or
+        # 0 (hold). A reading past the over-pressure limit latches that fault at once.
         setpoint = np.where(faulted, np.where(command.vent_opening > 0.0, 0.0,
                                               self._held_gauge_pa), setpoint)
         self._held_gauge_pa = np.where(faulted, self._held_gauge_pa, setpoint)
