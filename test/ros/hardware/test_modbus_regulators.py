@@ -7,7 +7,8 @@ import pytest
 from terminal_process import EXAMPLE_MAP, read_registers, REGULATOR_MAP, Terminal
 import yaml
 
-from flectofold_model.actuation import actuated_like, actuation_model_of, CushionMap
+from flectofold_model.actuation import (actuated_like, actuation_model_of,
+                                        ATMOSPHERIC_PRESSURE_PA, CushionMap)
 from flectofold_model.control import ControllerParameters, Fault, PanelLoops, SafeAction
 from flectofold_model.facade import load_facade
 from flectofold_model.safe_yaml import read_yaml
@@ -160,6 +161,34 @@ def test_a_killed_terminal_latches_comms_lost_and_a_restarted_one_gets_0_pa_firs
         loops.close()
     finally:
         terminal.kill()
+
+
+def test_after_a_link_loss_the_first_write_is_0_pa_to_vent_and_what_was_left_to_hold(model):
+    import signal
+    terminal = Terminal(map_file=REGULATOR_MAP)
+    try:
+        loops, client = _loops(model, terminal.port, max_backoff_s=0.2)
+        loops.set_safe_action(SafeAction.HOLD, [1])
+        loops.set_setpoints([0.8, 0.8])
+        assert _run(loops, 20.0, lambda: np.all(np.abs(loops.closure - 0.8) < 0.03))
+        held = client.writes[-1][1]
+        # The link is lost for longer than the fail-safe timeout: the terminal lets air out.
+        terminal.process.send_signal(signal.SIGSTOP)
+        try:
+            _run(loops, 1.0)
+            assert all(f is Fault.COMMS_LOST for f in loops.fault)
+            written = len(client.writes)
+        finally:
+            terminal.process.send_signal(signal.SIGCONT)
+        assert _run(loops, 5.0, lambda: len(client.writes) > written)
+        vent, hold = client.writes[written]
+        left_pa = loops.measured_pa[1] - ATMOSPHERIC_PRESSURE_PA  # read just before that write
+        assert vent == 0, client.writes[written - 1:]
+        # the held channel stays at what was left, not refilled to what it held
+        assert hold == _counts(loops, [0.0, left_pa])[1] and hold < held - 100, (held, hold)
+        loops.close()
+    finally:
+        terminal.stop()
 
 
 def test_a_mixed_terminal_tracks_through_its_valves_and_its_regulator(model, mixed_map):
