@@ -4,8 +4,8 @@ A regulated channel (:attr:`~.hardware.CushionDriver.regulated`) has, in place o
 vent valve, a regulator that holds the gauge pressure it is set to with its own loop, fed from
 the supply and exhausting to the atmosphere (a Festo VPPM-style valve). The panel's
 :class:`~.pressure_loop.PressureController` still runs for it, for its target, its rate limit,
-its feedback and its fault monitors; what reaches the regulator is its setpoint,
-:class:`RegulatorSetpoints` makes it from the loop's state each period:
+its feedback and its fault monitors; what reaches the regulator is its setpoint, which
+:class:`RegulatorSetpoints` makes from the loop's state each period:
 
 - **Tracking**: the loop's rate-limited reference
   (:attr:`~.pressure_loop.PressureController.reference_gauge_pa`), clipped to

@@ -84,8 +84,10 @@ class SimulatedTerminal:
             fill, vent = self.map.decode_outputs(self.outputs)
         regulated = self.map.regulated
         if np.any(regulated):
-            by_regulator = regulator_openings(self.plant, self.setpoints_gauge_pa())
-            fill, vent = (np.where(regulated, r, v) for r, v in zip(by_regulator, (fill, vent)))
+            regulator_fill, regulator_vent = regulator_openings(self.plant,
+                                                                self.setpoints_gauge_pa())
+            fill = np.where(regulated, regulator_fill, fill)
+            vent = np.where(regulated, regulator_vent, vent)
         return fill, vent
 
     def setpoints_gauge_pa(self):
