@@ -1,10 +1,12 @@
 """Modbus figures: round-trip latency and loop period jitter against ``valve_terminal_sim``.
 
-Run with ``.venv/bin/python bench/bench_modbus.py [--duration-s 30] [--period-s 0.1]``. It
-starts the simulated terminal (the example map ``config/modbus_terminal.yaml``, two
-channels) in its own process on 127.0.0.1, runs :class:`PanelLoops` over
-:class:`ModbusCushions` on the wall clock at the given period, as a panel process does
-(one batched read and one batched write per period), and prints:
+Run with ``.venv/bin/python bench/bench_modbus.py [--duration-s 30] [--period-s 0.1]
+[--map config/modbus_regulators.yaml]``. It starts the simulated terminal (by default the
+example map ``config/modbus_terminal.yaml``, two valve channels; ``--map`` another, such as
+the two regulator channels of ``config/modbus_regulators.yaml``) in its own process on
+127.0.0.1, runs :class:`PanelLoops` over :class:`ModbusCushions` on the wall clock at the
+given period, as a panel process does (one batched read and one batched write per period),
+and prints:
 
 * the round trip of each period's exchange (read request sent to write reply received) and
   of the read alone, p50/p99/max;
@@ -36,10 +38,10 @@ WARM_UP = 10
 MAP = Path(__file__).resolve().parents[1] / 'config' / 'modbus_terminal.yaml'
 
 
-def start_terminal():
+def start_terminal(map_file):
     process = subprocess.Popen([sys.executable, '-m', 'flectofold_ros', 'valve_terminal_sim',
-                                '--map', str(MAP), '--port', '0'], stdout=subprocess.PIPE,
-                               text=True)
+                                '--map', str(map_file), '--port', '0'],
+                               stdout=subprocess.PIPE, text=True)
     line = process.stdout.readline()
     match = re.search(r'on ([\d.]+):(\d+)', line)
     if match is None:
@@ -76,12 +78,15 @@ def main():
     parser = argparse.ArgumentParser(description=__doc__.split('\n')[0])
     parser.add_argument('--duration-s', type=float, default=30.0)
     parser.add_argument('--period-s', type=float, default=0.1)
+    parser.add_argument('--map', default=str(MAP), help='register map of the terminal')
     options = parser.parse_args()
+    register_map = load_register_map(options.map)
     facade = load_facade()
-    model = actuation_model_of(actuated_like(facade.panels[i]) for i in range(2))
-    terminal, port = start_terminal()
+    model = actuation_model_of(actuated_like(facade.panels[i])
+                               for i in range(register_map.count))
+    terminal, port = start_terminal(options.map)
     try:
-        driver = TimedDriver(load_register_map(MAP), '127.0.0.1', port)
+        driver = TimedDriver(register_map, '127.0.0.1', port)
         loops = PanelLoops(model, driver, options.period_s,
                            ControllerParameters(time_constant_s=max(0.4, 2 * options.period_s),
                                                 hold_band_pa=60.0),
@@ -100,7 +105,9 @@ def main():
         cpu_start, terminal_cpu_start = time.process_time(), cpu_s(terminal.pid)
         start = time.monotonic()
         for k in range(1, periods + 1):
-            loops.set_setpoints([0.3 + 0.4 * (k // 50 % 2), 0.5])  # a step every 50 periods
+            setpoints = np.full(register_map.count, 0.5)
+            setpoints[0] = 0.3 + 0.4 * (k // 50 % 2)  # a step every 50 periods
+            loops.set_setpoints(setpoints)
             deadline = start + k * options.period_s
             time.sleep(max(0.0, deadline - time.monotonic()))
             loops.advance_to(time.monotonic())
@@ -117,8 +124,10 @@ def main():
         round_trips += driver.round_trips_s
         intervals += np.diff(np.array(driver.read_times_s)).tolist()
         jitter = np.abs(np.array(intervals) - options.period_s)
+        regulators = int(register_map.regulated.sum())
         print(f'== Modbus TCP to valve_terminal_sim on 127.0.0.1: {periods} periods of '
-              f'{options.period_s * 1e3:g} ms, {loops.driver.count} channels ==')
+              f'{options.period_s * 1e3:g} ms, {loops.driver.count} channels '
+              f'({regulators} regulated), {Path(options.map).name} ==')
         faults = sorted({f.value for f in loops.fault})
         print(f'failures {driver.failures}, connects {driver.reconnects}, '
               f'exchanges {driver.exchanges - exchanges}, faults {faults}')

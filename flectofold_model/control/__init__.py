@@ -5,6 +5,8 @@
 - :mod:`.setpoint_guard`: setpoint validation and the watchdog (:class:`SetpointGuard`);
 - :mod:`.hardware`: the valve/sensor interface the loop drives (:class:`CushionDriver`) and its
   simulation;
+- :mod:`.regulator`: pressure setpoints for channels that a proportional pressure regulator
+  drives (:class:`RegulatorSetpoints`);
 - :mod:`.panel_loops`: the loops of the panels one process hosts (:class:`PanelLoops`), each
   panel's handle on them (:class:`LoopRow`);
 - :mod:`.loop_kernel`, :mod:`.simulation_kernel`: the compiled loop (its one implementation)
@@ -20,11 +22,13 @@ from flectofold_model.control.panel_loops import (compile_kernels, facade_loops,
                                                   LoopRow, panel_indices, PanelLoops, RowSample)
 from flectofold_model.control.pressure_loop import (ControllerParameters, Fault,
                                                     PressureController, SafeAction, ValveCommand)
+from flectofold_model.control.regulator import RegulatorSetpoints
 from flectofold_model.control.setpoint_guard import SafeBehaviour, SetpointGuard, SetpointState
 
 __all__ = [
     'ControllerParameters', 'CushionDriver', 'Fault', 'LoopAdvance', 'LoopRow', 'LoopTrace',
-    'PanelLoops', 'PressureController', 'PublishDecimator', 'RowSample', 'SafeAction',
-    'SafeBehaviour', 'SetpointGuard', 'SetpointState', 'SimulatedCushions', 'StepMetrics',
-    'ValveCommand', 'compile_kernels', 'facade_loops', 'panel_indices', 'simulate', 'step_metrics',
+    'PanelLoops', 'PressureController', 'PublishDecimator', 'RegulatorSetpoints', 'RowSample',
+    'SafeAction', 'SafeBehaviour', 'SetpointGuard', 'SetpointState', 'SimulatedCushions',
+    'StepMetrics', 'ValveCommand', 'compile_kernels', 'facade_loops', 'panel_indices', 'simulate',
+    'step_metrics',
 ]

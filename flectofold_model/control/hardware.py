@@ -4,9 +4,11 @@ A :class:`CushionDriver` is a valve island: ``N`` cushion channels, each with a 
 vent valve, a cushion pressure sensor and a supply pressure sensor. The pressure loop only
 reads sensors and writes valve openings through it, so a driver for real hardware (a fieldbus
 valve terminal, say) replaces :class:`SimulatedCushions` without touching the loop or the ROS
-nodes. A real driver's time passes by itself; a simulated one is advanced by the loop in
-fixed control periods (:attr:`CushionDriver.simulated`), which keeps the simulation exact
-whatever the ROS clock does.
+nodes. A driver may have a proportional pressure regulator on some channels in place of the
+two valves (:attr:`CushionDriver.regulated`): the loop then gives those a pressure setpoint
+(:meth:`CushionDriver.write_outputs`). A real driver's time passes by itself; a simulated
+one is advanced by the loop in fixed control periods (:attr:`CushionDriver.simulated`), which
+keeps the simulation exact whatever the ROS clock does.
 """
 
 import abc
@@ -54,6 +56,26 @@ class CushionDriver(abc.ABC):
     @abc.abstractmethod
     def write_valves(self, fill_opening, vent_opening):
         """Set the fill and vent valve openings (N,), each in [0, 1]."""
+
+    @property
+    def regulated(self):
+        """Which channels (N,) a proportional pressure regulator drives; none by default.
+
+        A regulated channel has no fill and vent valves of its own to command: its regulator,
+        fed from the supply and exhausting to the atmosphere, holds the gauge pressure it is
+        set to with its own loop. :class:`~.panel_loops.PanelLoops` sets it through
+        :meth:`write_outputs`.
+        """
+        return np.zeros(self.count, dtype=bool)
+
+    def write_outputs(self, fill_opening, vent_opening, regulator_gauge_pa):
+        """Set valve openings and regulator setpoints (N,) together, as one write.
+
+        For drivers with :attr:`regulated` channels, which take ``regulator_gauge_pa``
+        [Pa gauge, >= 0] there and the openings elsewhere; the loop calls it in place of
+        :meth:`write_valves`.
+        """
+        raise NotImplementedError(f'{type(self).__name__} has no pressure regulators')
 
     def advance(self, dt_s):
         """Let ``dt_s`` seconds pass (simulated drivers only)."""

@@ -31,6 +31,7 @@ from flectofold_model.control.decimation import PublishDecimator
 from flectofold_model.control.hardware import CushionDriver, SimulatedCushions
 from flectofold_model.control.pressure_loop import (ControllerParameters, Fault,
                                                     PressureController)
+from flectofold_model.control.regulator import RegulatorSetpoints
 
 #: States a loop keeps for its rows: rows that take them at least this often lose none.
 SAMPLE_HISTORY = 4096
@@ -87,7 +88,10 @@ class PanelLoops:
     model : ActuationModel or HexagonActuationModel
         The panels' static actuation (one row per driver channel), of either panel kind.
     driver : CushionDriver
-        Valves and sensors, ``driver.count == len(model)``.
+        Valves and sensors, ``driver.count == len(model)``. Its
+        :attr:`~.hardware.CushionDriver.regulated` channels get pressure setpoints
+        (:mod:`.regulator`) rather than valve openings; such a driver needs a positive
+        ``hold_band_pa``.
     control_period_s : float
         Period of the loop [s], in (0, 1].
     parameters : ControllerParameters
@@ -144,6 +148,9 @@ class PanelLoops:
         self.map = CushionMap(model) if cushion_map is None else cushion_map
         self.driver = driver
         self.controller = PressureController(self.map, driver.circuit, parameters)
+        self.regulators = _regulators(self.controller, driver)
+        """The :class:`~.regulator.RegulatorSetpoints` of a driver with regulated channels,
+        else None."""
         self._setpoint = np.zeros(len(model))
         self.measured_pa = np.full(len(model), np.nan)
         self._rested_setpoint = None
@@ -382,7 +389,11 @@ class PanelLoops:
             self.controller.latch_fault(Fault.COMMS_LOST)
         command = self.controller.step(dt_s, self._setpoint, self.measured_pa,
                                        self.driver.read_supply_pa())
-        self.driver.write_valves(command.fill_opening, command.vent_opening)
+        if self.regulators is None:
+            self.driver.write_valves(command.fill_opening, command.vent_opening)
+        else:
+            self.driver.write_outputs(command.fill_opening, command.vent_opening,
+                                      self.regulators.update(command, self.measured_pa))
         self._feedback = None
         return command
 
@@ -526,6 +537,18 @@ class LoopRow:
     def sensor_noise_pa(self):
         """Standard deviation of the cushion sensor's noise [Pa]."""
         return self.loops.driver.circuit.sensor_noise_pa
+
+
+def _regulators(controller, driver):
+    """Return the RegulatorSetpoints of a driver with regulated channels, None for valves."""
+    regulated = np.asarray(driver.regulated)
+    if not np.any(regulated):
+        return None
+    if controller.parameters.hold_band_pa <= 0.0:
+        # At rest the valve model must expect no flow: the regulator, not the loop, holds.
+        raise ValueError('a driver with pressure regulators needs hold_band_pa > 0 (three '
+                         "sensor sigmas, and more than the regulator's accuracy)")
+    return RegulatorSetpoints(controller, regulated)
 
 
 def _positive(name, value, largest):

@@ -273,6 +273,14 @@ class PressureController:
         for start in (k.LEAK_START, k.INFLOW_START):
             self.state[start, selected] = self.state[k.FILTERED, selected]
 
+    def clear_integral(self, panels=None):
+        """Zero the PI integral of the selected loops (all by default).
+
+        For loops whose output a pressure regulator replaces (:mod:`.regulator`): there the
+        integral would wind up on the regulator's lag, unopposed.
+        """
+        self.state[self._kernel.INTEGRAL, self._selection(panels)] = 0.0
+
     def latch_fault(self, fault, panels=None):
         """Latch ``fault`` on the selected panels that have none yet; return how many took it.
 

@@ -3,17 +3,19 @@
 Each control period is one exchange of each kind with the terminal (pymodbus' synchronous
 client): :meth:`ModbusCushions.read_pressure_pa` reads the whole input block of the register
 map in one request (cushion and supply pressures together; :meth:`read_supply_pa` returns the
-supply of that same read), and :meth:`write_valves` writes the whole output block in one.
+supply of that same read), and :meth:`write_outputs` (or :meth:`write_valves` on a terminal
+of valves only) writes the whole output block in one: the valve channels' openings and the
+regulator channels' pressure setpoints together.
 
 **Comms loss.** A request that times out (``timeout_s``), a dropped or refused connection, or
 a Modbus exception reply (a wrong unit id, say) makes :attr:`comms_lost` True: the readings
 are NaN and nothing is written until an exchange succeeds again, so a stale command can never
 be sent late. The loop then latches ``comms_lost`` on every channel and commands its safe
 action, which reaches the terminal as soon as the link is back. Meanwhile the terminal is on
-its own: its fieldbus-loss fail-safe must shut the fill valves and open the vents
-(``msg_docs/modbus.md``). A lost connection is reopened with exponential back-off, from
-``backoff_s`` up to ``max_backoff_s``, so that a dead terminal costs one refused connect per
-back-off, not a blocked loop every period.
+its own: its fieldbus-loss fail-safe must shut the fill valves, open the vents and set the
+regulators to 0 Pa (``msg_docs/modbus.md``). A lost connection is reopened with exponential
+back-off, from ``backoff_s`` up to ``max_backoff_s``, so that a dead terminal costs one
+refused connect per back-off, not a blocked loop every period.
 """
 
 from collections import deque
@@ -22,6 +24,7 @@ import time
 
 import numpy as np
 
+from flectofold_model._validate import in_range, real_array
 from flectofold_model.actuation.circuit import DEMONSTRATOR_PLANT
 from flectofold_model.control.hardware import _openings, CushionDriver
 from flectofold_ros.hardware.register_map import RegisterMap
@@ -79,6 +82,7 @@ class ModbusCushions(CushionDriver):
         self._backoff = self.backoff_s
         nan = np.full(register_map.count, np.nan)
         self._pressure, self._supply = nan, nan.copy()
+        self._regulator_gauge_pa = np.zeros(register_map.count)
         self.last_error = ''
         self.exchanges, self.failures, self.reconnects, self.writes_skipped = 0, 0, 0, 0
         self.round_trips_s = deque(maxlen=TIMING_HISTORY)
@@ -98,6 +102,15 @@ class ModbusCushions(CushionDriver):
     @property
     def comms_lost(self):
         return self._lost
+
+    @property
+    def regulated(self):
+        return self.map.regulated
+
+    @property
+    def regulator_gauge_pa(self):
+        """The regulator setpoints last asked for (N,) [Pa gauge], written or not."""
+        return self._regulator_gauge_pa.copy()
 
     # -- the exchanges ---------------------------------------------------------------------
 
@@ -131,13 +144,28 @@ class ModbusCushions(CushionDriver):
         return self._supply.copy()
 
     def write_valves(self, fill_opening, vent_opening):
-        """Write every output of the terminal (one request); nothing while comms are lost."""
+        """Write every output of the terminal (one request); nothing while comms are lost.
+
+        Regulator channels keep the setpoints last asked for (0 Pa before any).
+        """
+        self.write_outputs(fill_opening, vent_opening, self._regulator_gauge_pa)
+
+    def write_outputs(self, fill_opening, vent_opening, regulator_gauge_pa):
+        """Write valve openings and regulator setpoints [Pa gauge] (N,) in one request.
+
+        Nothing is written while comms are lost. A setpoint beyond a regulator's range is
+        written as its nearest end.
+        """
         fill = _openings('fill_opening', fill_opening, self.count)
         vent = _openings('vent_opening', vent_opening, self.count)
+        setpoint = np.broadcast_to(real_array('regulator_gauge_pa', regulator_gauge_pa),
+                                   (self.count,))
+        self._regulator_gauge_pa = in_range('regulator_gauge_pa', setpoint, 0.0,
+                                            np.inf).astype(np.float64)
         if self._lost or not self._connected:
             self.writes_skipped += 1
             return
-        block = self.map.encode_outputs(fill, vent)
+        block = self.map.encode_outputs(fill, vent, self._regulator_gauge_pa)
         writer = self._client.write_coils if self.map.output_table == 'coils' else \
             self._client.write_registers
         if self._request(writer, self.map.output_start, block,
@@ -148,7 +176,10 @@ class ModbusCushions(CushionDriver):
             self.round_trips_s.append(time.monotonic() - self._read_started)
 
     def close(self):
-        """Shut every valve if the terminal answers, then close the connection."""
+        """Shut every valve if the terminal answers, then close the connection.
+
+        The regulators keep their setpoints: like valves shut, they hold the cushions' air.
+        """
         try:
             if self._connected and not self._lost:
                 self.write_valves(np.zeros(self.count), np.zeros(self.count))

@@ -3,10 +3,12 @@
 :class:`SimulatedTerminal` holds the terminal's registers and a
 :class:`~flectofold_model.actuation.PneumaticPlant` with one channel per map channel, as
 :class:`~flectofold_model.control.hardware.SimulatedCushions` does, and advances the plant on
-the wall clock with the valve openings its output registers hold. It keeps the fieldbus-loss
-fail-safe the map asks a real terminal to be configured with: after
-``fail_safe.timeout_s`` without a write, every fill valve shuts and every vent opens (until
-the next write). :func:`serve` puts it behind pymodbus' asyncio TCP server, bound to
+the wall clock with the valve openings its output registers hold; on a regulator channel a
+simulated proportional pressure regulator (:mod:`.regulator_sim`) drives that channel's
+valves toward the setpoint its register holds. It keeps the fieldbus-loss fail-safe the map
+asks a real terminal to be configured with: after ``fail_safe.timeout_s`` without a write,
+every fill valve shuts, every vent opens and every regulator is set to 0 Pa, exhausting
+(until the next write). :func:`serve` puts it behind pymodbus' asyncio TCP server, bound to
 127.0.0.1 unless told otherwise; the ``valve_terminal_sim`` executable runs that.
 """
 
@@ -21,6 +23,7 @@ from pymodbus.exceptions import NoSuchIdException
 from flectofold_model.actuation import PneumaticPlant
 from flectofold_model.actuation.circuit import DEMONSTRATOR_PLANT
 from flectofold_model.control.panel_loops import facade_actuation, facade_plant
+from flectofold_ros.hardware.regulator_sim import regulator_openings
 
 #: Address the simulator listens on unless told otherwise: this host only.
 DEFAULT_HOST = '127.0.0.1'
@@ -70,10 +73,33 @@ class SimulatedTerminal:
         self._sample()
 
     def openings(self):
-        """Give the fill and vent valve positions in force (N,): outputs' or fail-safe's."""
+        """Give the fill and vent valve positions in force (N,).
+
+        The outputs' or the fail-safe's on a valve channel, the regulator's on a regulator
+        channel (toward :meth:`setpoints_gauge_pa`, from the plant's present pressure).
+        """
         if self.fail_safe_active:
-            return np.zeros(self.map.count), np.ones(self.map.count)
-        return self.map.decode_outputs(self.outputs)
+            fill, vent = np.zeros(self.map.count), np.ones(self.map.count)
+        else:
+            fill, vent = self.map.decode_outputs(self.outputs)
+        regulated = self.map.regulated
+        if np.any(regulated):
+            regulator_fill, regulator_vent = regulator_openings(self.plant,
+                                                                self.setpoints_gauge_pa())
+            fill = np.where(regulated, regulator_fill, fill)
+            vent = np.where(regulated, regulator_vent, vent)
+        return fill, vent
+
+    def setpoints_gauge_pa(self):
+        """Give the regulator setpoints in force (N,) [Pa gauge]: 0 under the fail-safe.
+
+        NaN on valve channels; an out-of-range count (never written: refused) reads NaN,
+        which the regulator takes as 0 Pa.
+        """
+        setpoint = self.map.decode_setpoints(self.outputs)
+        if self.fail_safe_active:
+            setpoint[self.map.regulated] = 0.0
+        return setpoint
 
     def advance(self):
         """Run the plant up to the wall clock, with the openings in force."""
@@ -117,8 +143,8 @@ class SimulatedTerminal:
         start = self.map.output_start
         if address < start or address + len(values) > start + len(self.outputs):
             return ExcCodes.ILLEGAL_ADDRESS
-        if table == 'holding' and any(not 0 <= v <= self.map.full_open for v in values):
-            return ExcCodes.ILLEGAL_VALUE  # the openings in force stay as they were
+        if not self.map.outputs_take(address, values):
+            return ExcCodes.ILLEGAL_VALUE  # the outputs in force stay as they were
         self.outputs[address - start:address - start + len(values)] = list(values)
         self.last_write_s, self.fail_safe_active = self.clock(), False
         self.writes += 1

@@ -9,6 +9,7 @@ import sys
 import threading
 
 EXAMPLE_MAP = Path(__file__).resolve().parents[2] / 'config' / 'modbus_terminal.yaml'
+REGULATOR_MAP = EXAMPLE_MAP.with_name('modbus_regulators.yaml')
 _SERVING = re.compile(r'serving \d+ channel\(s\) of unit \d+ on ([\d.]+):(\d+)')
 
 

@@ -18,7 +18,7 @@ FILES = {'panel.yaml': panel.PARAMETERS, 'coordinator.yaml': coordinator.PARAMET
          'bag_recorder.yaml': bag_recorder.PARAMETERS,
          'facade_markers.yaml': facade_markers.PARAMETERS}
 #: Files under config/ that are not parameter files: Modbus register maps.
-REGISTER_MAPS = ('modbus_terminal.yaml',)
+REGISTER_MAPS = ('modbus_terminal.yaml', 'modbus_regulators.yaml')
 #: rclpy's own parameter, which every node has.
 BUILT_IN = {'use_sim_time': ParameterType.PARAMETER_BOOL}
 PYTHON_TYPES = {ParameterType.PARAMETER_BOOL: bool, ParameterType.PARAMETER_DOUBLE: float,

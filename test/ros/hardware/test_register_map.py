@@ -125,3 +125,98 @@ def test_a_file_that_cannot_be_read_or_is_not_yaml_is_refused(tmp_path):
     bad.write_text('unit_id: [1\n')
     with pytest.raises(RegisterMapError, match='bad.yaml'):
         load_register_map(bad)
+
+
+REGULATORS = Path(__file__).resolve().parents[3] / 'config' / 'modbus_regulators.yaml'
+
+
+def _regulated(**regulator):
+    """Return a map of a valve channel (outputs 10, 11) and a regulator channel (output 12)."""
+    document = _map()
+    document['channels'].append({
+        'regulator': {'address': 12, 'gauge_pa_per_count': 2.0, 'max_count': 10000,
+                      **regulator},
+        'pressure': {'address': 6, 'pa_per_count': 1.0, 'offset_pa': 101325.0},
+        'supply': {'address': 7, 'pa_per_count': 2.0, 'offset_pa': 101325.0}})
+    return document
+
+
+def test_the_example_regulator_map_loads_two_regulators_in_one_output_block():
+    register_map = load_register_map(REGULATORS)
+    assert register_map.regulated.tolist() == [True, True]
+    assert (register_map.output_start, register_map.output_count) == (0, 2)
+    assert register_map.encode_outputs([0.0, 0.0], [0.0, 0.0], [5000.0, 0.0]) == [2500, 0]
+
+
+def test_a_mixed_map_writes_openings_and_setpoints_in_one_block():
+    register_map = parse(_regulated())
+    assert register_map.regulated.tolist() == [False, True]
+    assert (register_map.output_start, register_map.output_count) == (10, 3)
+    block = register_map.encode_outputs([0.25, 0.0], [0.0, 1.0], [0.0, 4323.0])
+    assert block == [2500, 0, 2161]  # 4323 Pa rounds down to 2161 counts of 2 Pa
+    fill, vent = register_map.decode_outputs(block)
+    assert fill[0] == 0.25 and vent[0] == 0.0 and np.isnan(fill[1]) and np.isnan(vent[1])
+    setpoint = register_map.decode_setpoints(block)
+    assert np.isnan(setpoint[0]) and setpoint[1] == 4322.0
+    with pytest.raises(ValueError, match='setpoints are needed'):
+        register_map.encode_outputs([0.0, 0.0], [0.0, 0.0])
+
+
+def test_a_setpoint_is_clipped_to_the_regulator_range_and_never_rounded_up():
+    regulator = parse(_regulated(gauge_offset_pa=-1.5)).channels[1].regulator
+    assert int(regulator.encode(0.0)) == 0  # count 0.75: down to 0 (-1.5 Pa), not up to 0.5 Pa
+    assert int(regulator.encode(1e6)) == 10000 and int(regulator.encode(-50.0)) == 0
+    signed = parse(_regulated(signed=True, min_count=-100, gauge_offset_pa=0.0))
+    raw = int(signed.channels[1].regulator.encode(-100.0))
+    assert raw == 65536 - 50 and signed.decode_setpoints([0, 0, raw])[1] == -100.0
+
+
+def test_the_terminal_side_takes_only_counts_in_each_outputs_range():
+    register_map = parse(_regulated())
+    assert register_map.outputs_take(10, [10000, 0, 10000])
+    assert not register_map.outputs_take(12, [10001])  # past the regulator's max_count
+    assert not register_map.outputs_take(10, [10001])  # past full_open
+    assert not register_map.outputs_take(12, [0, 0])  # address 13 is no output
+
+
+@pytest.mark.parametrize('change, message', [
+    (lambda c: c.update(fill=13), 'channels\\[1\\].fill must be absent beside a regulator'),
+    (lambda c: c.pop('regulator'), 'channels\\[1\\].fill is missing .*or a regulator'),
+    (lambda c: c['regulator'].update(address=11), 'channels\\[1\\].regulator.address must be '
+     'an address of its own, not that of channels\\[0\\].vent'),
+    (lambda c: c['regulator'].update(address=13), 'channels must be one contiguous block'),
+    (lambda c: c['regulator'].update(gauge_offset_pa=10.0),
+     'channels\\[1\\].regulator.min_count must be a count of at most 0 Pa gauge'),
+    (lambda c: c['regulator'].update(gauge_offset_pa=-30000.0),
+     'channels\\[1\\].regulator.max_count must be a count above 0 Pa gauge'),
+    (lambda c: c['regulator'].update(gauge_pa_per_count=0.0),
+     'channels\\[1\\].regulator.gauge_pa_per_count must be a number in'),
+    (lambda c: c['regulator'].pop('gauge_pa_per_count'),
+     'channels\\[1\\].regulator.gauge_pa_per_count is missing'),
+    (lambda c: c['regulator'].update(pa_per_count=2.0),
+     'unknown key channels\\[1\\].regulator.pa_per_count'),
+    (lambda c: c['regulator'].update(min_count=9, max_count=9),
+     'channels\\[1\\].regulator.max_count must be more than'),
+    (lambda c: c.update(regulator=12), 'channels\\[1\\].regulator must be a mapping'),
+])
+def test_a_malformed_regulator_channel_is_refused_naming_the_key(change, message):
+    document = _regulated()
+    change(document['channels'][1])
+    with pytest.raises(RegisterMapError, match=f'^map.yaml: {message}'):
+        parse(document, 'map.yaml')
+
+
+def test_a_regulator_on_a_coil_table_is_refused():
+    document = _regulated()
+    document['outputs'] = {'table': 'coils'}
+    with pytest.raises(RegisterMapError, match='map.yaml: outputs.table must be '
+                                               'holding_registers: channels\\[1\\].regulator'):
+        parse(document, 'map.yaml')
+
+
+def test_a_regulator_may_not_share_a_holding_register_with_an_input():
+    document = _regulated()
+    document['inputs'] = {'table': 'holding_registers'}
+    document['channels'][0]['supply']['address'] = 12
+    with pytest.raises(RegisterMapError, match='channels.*an input or an output, not both'):
+        parse(document, 'map.yaml')

@@ -6,8 +6,9 @@ from diagnostic_msgs.msg import DiagnosticStatus, KeyValue
 import pytest
 from ros_graph import domain_for, Graph
 from std_msgs.msg import Float64
-from terminal_process import EXAMPLE_MAP, read_registers, Terminal
+from terminal_process import EXAMPLE_MAP, read_registers, REGULATOR_MAP, Terminal
 
+from flectofold_model.actuation import DEMONSTRATOR_PLANT
 from flectofold_ros import contract
 from flectofold_ros.interfaces import client, publisher, subscription
 
@@ -69,9 +70,9 @@ class Probe:
             assert self.graph.spin_until(future.done, 10.0)
 
 
-def _panels(graph, port, *extra):
+def _panels(graph, port, *extra, map_file=EXAMPLE_MAP):
     return graph.start('panel_group', '--panels', ','.join(PANELS), '--ros-args',
-                       '-p', 'hardware:=modbus', '-p', f'modbus.map_file:={EXAMPLE_MAP}',
+                       '-p', 'hardware:=modbus', '-p', f'modbus.map_file:={map_file}',
                        '-p', f'modbus.port:={port}', '-p', 'diagnostics_period_s:=0.5', *extra)
 
 
@@ -118,12 +119,40 @@ def test_a_facade_runs_hardware_in_the_loop_through_the_terminal_and_survives_it
         graph.close()
 
 
+def test_a_facade_tracks_through_pressure_regulators_set_to_its_targets():
+    from flectofold_model.control import ControllerParameters, PressureController
+    from flectofold_model.control.panel_loops import facade_actuation
+    from flectofold_model.facade import load_facade
+    from flectofold_ros.hardware.register_map import load_register_map
+    _, cushion_map = facade_actuation(load_facade(), PANELS)
+    targets_pa = PressureController(cushion_map, DEMONSTRATOR_PLANT, ControllerParameters()) \
+        .pressure_for_closure([0.3, 0.3])
+    counts = [int(c.regulator.encode(p)) for c, p in
+              zip(load_register_map(REGULATOR_MAP).channels, targets_pa)]
+    graph = Graph(domain_for(28))
+    terminal = Terminal('--panels', ','.join(PANELS), map_file=REGULATOR_MAP, env=graph.env)
+    try:
+        panels = _panels(graph, terminal.port, map_file=REGULATOR_MAP)
+        probe = Probe(graph)
+        assert probe.hold(0.3, lambda: probe.tracking(0.3), 60.0), probe.closure
+        assert read_registers(terminal.port, 0, 2) == counts
+        assert graph.spin_until(lambda: probe.comms('ok'), 5.0)
+        code, output = graph.stop(panels)
+        assert code == 0, output
+        assert read_registers(terminal.port, 0, 2) == counts, output  # closing holds the air
+    finally:
+        terminal.kill()
+        graph.close()
+
+
 @pytest.mark.parametrize('arguments, reason', [
     ([], 'needs modbus.map_file'),
     (['-p', 'modbus.map_file:=/nonexistent/map.yaml'], 'cannot be read'),
     (['-p', f'modbus.map_file:={EXAMPLE_MAP}', '-p', 'modbus.port:=0'], 'modbus.port'),
     (['-p', f'modbus.map_file:={EXAMPLE_MAP}', '-p', 'modbus.host:=a b'], 'modbus host'),
     (['-p', f'modbus.map_file:={EXAMPLE_MAP}', '-p', 'use_sim_time:=true'], 'wall clock'),
+    (['-p', f'modbus.map_file:={REGULATOR_MAP}', '-p', 'control.hold_band_pa:=0.0'],
+     'hold_band_pa > 0'),
 ])
 def test_bad_modbus_settings_are_refused_at_start_in_one_line(arguments, reason):
     graph = Graph(domain_for(27))
