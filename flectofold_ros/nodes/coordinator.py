@@ -70,6 +70,7 @@ class CoordinatorNode(Node):
         self.rejected = Counter()
         self.overrides_refused_in_storm = 0
         self._storm_decided = False
+        self._storm_logged = False  # the latch as last logged
         self._sun_decided = False
         self._last_decision_s = -math.inf
         self._sun = None
@@ -218,16 +219,28 @@ class CoordinatorNode(Node):
     def _storm_changed(self, was):
         """Decide at once when the latch changed; run the storm timer while one is due."""
         scheduler = self.schedule.scheduler
+        self._log_storm_change()
         if scheduler.storm_latched != was:
-            self.get_logger().warning(
-                f'storm latch {"tripped" if scheduler.storm_latched else "released"} at '
-                f'{scheduler.storm_changed_s:.3f} s: panels '
-                f'{"to the storm position" if scheduler.storm_latched else "back to automatic"}')
             self._decide()
         if scheduler.storm_due_s is None:
             self._storm_timer.cancel()
         elif self._storm_timer.is_canceled():
             self._storm_timer.reset()
+
+    def _log_storm_change(self):
+        """Log a trip or a release once, whichever evaluation of the latch made it.
+
+        A decision's step evaluates the latch too: when it comes to a trip or release instant
+        before the storm timer does (a loaded process, a fast clock), the change is its.
+        """
+        scheduler = self.schedule.scheduler
+        if scheduler.storm_latched == self._storm_logged:
+            return
+        self._storm_logged = scheduler.storm_latched
+        self.get_logger().warning(
+            f'storm latch {"tripped" if scheduler.storm_latched else "released"} at '
+            f'{scheduler.storm_changed_s:.3f} s: panels '
+            f'{"to the storm position" if scheduler.storm_latched else "back to automatic"}')
 
     # -- decisions --------------------------------------------------------------------------
 
@@ -276,6 +289,7 @@ class CoordinatorNode(Node):
         result = self.schedule.step(
             now, None if sun is None else self._sun_window(now, sun),
             dni_w_m2=self._fresh(self._dni, self._value('weather_timeout_s')), faulted=faulted)
+        self._log_storm_change()
         self._last_decision_s = now
         self._storm_decided = self.schedule.scheduler.storm_latched
         self._sun_decided = self._sun_decided or sun is not None
