@@ -193,8 +193,8 @@ def test_package_xml_names_what_the_tests_and_lint_use():
                (ROOT / 'requirements.txt').read_text().splitlines()
                if line.startswith('flake8')}
     assert {f'python3-{name}' for name in linters} <= test_depends
-    assert {'python3-pytest', 'python3-catkin-pkg', 'python3-colcon-common-extensions',
-            'ament_index_python'} <= test_depends
+    assert {'python3-pytest', 'python3-pytest-xdist', 'python3-catkin-pkg',
+            'python3-colcon-common-extensions', 'ament_index_python'} <= test_depends
 
 
 def test_graph_tests_are_marked():

@@ -166,5 +166,10 @@ def _descendants(pid):
 
 
 def domain_for(offset):
-    """Pick a ROS domain for this test process: parallel runs on one host stay apart."""
-    return (os.getpid() + offset) % 40 + 10
+    """Pick a ROS domain for this test process: parallel runs on one host stay apart.
+
+    Under pytest-xdist each of up to four workers has its own 20 domains (10-29, 30-49, 50-69,
+    70-89), so that two tests running at once never share one.
+    """
+    worker = int(os.environ.get('PYTEST_XDIST_WORKER', 'gw0')[2:]) % 4
+    return 10 + 20 * worker + (os.getpid() + offset) % 20
