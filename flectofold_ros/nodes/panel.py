@@ -242,11 +242,11 @@ class PanelProcess:
         self._start_fault_injection(facade_ids)
         settings.add_post_set_parameters_callback(self._apply_parameters)
         settings.create_timer(self.control_period_s, self._tick)
-        slices = -(-count // STATUSES_PER_MESSAGE)
         self._report_slices = [range(start, min(start + STATUSES_PER_MESSAGE, count))
                                for start in range(0, count, STATUSES_PER_MESSAGE)]
         self._next_slice = 0
-        settings.create_timer(value('diagnostics_period_s') / slices, self._report,
+        settings.create_timer(value('diagnostics_period_s') / len(self._report_slices),
+                              self._report,
                               clock=Clock(clock_type=ClockType.STEADY_TIME))
         self._publish_latched(np.full(count, _STATUS_CODE[SetpointState.WAITING.value]))
 
