@@ -10,6 +10,9 @@ import threading
 
 EXAMPLE_MAP = Path(__file__).resolve().parents[2] / 'config' / 'modbus_terminal.yaml'
 REGULATOR_MAP = EXAMPLE_MAP.with_name('modbus_regulators.yaml')
+# A Modbus timeout for tests not about timeouts: three test workers on two cores can hold the
+# terminal's reply past the driver's 50 ms default, and ``comms_lost`` would latch.
+UNHURRIED_TIMEOUT_S = 0.25
 _SERVING = re.compile(r'serving \d+ channel\(s\) of unit \d+ on ([\d.]+):(\d+)')
 
 

@@ -5,11 +5,9 @@ import time
 
 import numpy as np
 import pytest
-from terminal_process import EXAMPLE_MAP, read_registers, Terminal
+from terminal_process import EXAMPLE_MAP, read_registers, Terminal, UNHURRIED_TIMEOUT_S
 
-from flectofold_model.actuation import actuated_like, actuation_model_of, CushionMap
 from flectofold_model.control import ControllerParameters, Fault, PanelLoops
-from flectofold_model.facade import load_facade
 from flectofold_ros.hardware.modbus_driver import ModbusCushions, validate_endpoint
 from flectofold_ros.hardware.register_map import load_register_map, parse
 
@@ -17,14 +15,8 @@ pytestmark = pytest.mark.graph
 PERIOD_S = 0.1
 
 
-@pytest.fixture(scope='module')
-def model():
-    facade = load_facade()
-    actuation = actuation_model_of(actuated_like(facade.panels[i]) for i in range(2))
-    return actuation, CushionMap(actuation)
-
-
 def _driver(port, register_map=None, **kwargs):
+    kwargs.setdefault('timeout_s', UNHURRIED_TIMEOUT_S)
     return ModbusCushions(register_map or load_register_map(EXAMPLE_MAP), '127.0.0.1', port,
                           **kwargs)
 

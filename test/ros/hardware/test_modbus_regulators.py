@@ -4,26 +4,18 @@ import time
 
 import numpy as np
 import pytest
-from terminal_process import EXAMPLE_MAP, read_registers, REGULATOR_MAP, Terminal
+from terminal_process import (EXAMPLE_MAP, read_registers, REGULATOR_MAP, Terminal,
+                              UNHURRIED_TIMEOUT_S)
 import yaml
 
-from flectofold_model.actuation import (actuated_like, actuation_model_of,
-                                        ATMOSPHERIC_PRESSURE_PA, CushionMap)
+from flectofold_model.actuation import ATMOSPHERIC_PRESSURE_PA
 from flectofold_model.control import ControllerParameters, Fault, PanelLoops, SafeAction
-from flectofold_model.facade import load_facade
 from flectofold_model.safe_yaml import read_yaml
 from flectofold_ros.hardware.modbus_driver import _pymodbus_client, ModbusCushions
 from flectofold_ros.hardware.register_map import load_register_map
 
 pytestmark = pytest.mark.graph
 PERIOD_S = 0.1
-
-
-@pytest.fixture(scope='module')
-def model():
-    facade = load_facade()
-    actuation = actuation_model_of(actuated_like(facade.panels[i]) for i in range(2))
-    return actuation, CushionMap(actuation)
 
 
 @pytest.fixture()
@@ -60,6 +52,7 @@ def _loops(model, port, map_file=REGULATOR_MAP, **options):
         clients.append(RecordingClient(host, port_, timeout_s))
         return clients[-1]
 
+    options.setdefault('timeout_s', UNHURRIED_TIMEOUT_S)  # none of these tests is about timeouts
     driver = ModbusCushions(load_register_map(map_file), '127.0.0.1', port,
                             client_factory=recording, **options)
     actuation, cushion_map = model

@@ -6,7 +6,8 @@ from diagnostic_msgs.msg import DiagnosticStatus, KeyValue
 import pytest
 from ros_graph import domain_for, Graph
 from std_msgs.msg import Float64
-from terminal_process import EXAMPLE_MAP, read_registers, REGULATOR_MAP, Terminal
+from terminal_process import (EXAMPLE_MAP, read_registers, REGULATOR_MAP, Terminal,
+                              UNHURRIED_TIMEOUT_S)
 
 from flectofold_model.actuation import DEMONSTRATOR_PLANT
 from flectofold_ros import contract
@@ -73,7 +74,8 @@ class Probe:
 def _panels(graph, port, *extra, map_file=EXAMPLE_MAP):
     return graph.start('panel_group', '--panels', ','.join(PANELS), '--ros-args',
                        '-p', 'hardware:=modbus', '-p', f'modbus.map_file:={map_file}',
-                       '-p', f'modbus.port:={port}', '-p', 'diagnostics_period_s:=0.5', *extra)
+                       '-p', f'modbus.port:={port}', '-p', 'diagnostics_period_s:=0.5',
+                       '-p', f'modbus.timeout_s:={UNHURRIED_TIMEOUT_S}', *extra)
 
 
 def test_a_facade_runs_hardware_in_the_loop_through_the_terminal_and_survives_its_loss():
