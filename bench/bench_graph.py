@@ -8,7 +8,9 @@ discovery) and measures, in three phases:
 
 * **rest**: no setpoint after the start (the panels hold closure 0);
 * **moving**: a commander sends every panel a new setpoint, 0.2 / 0.8 alternately, every 4 s,
-  all panels at once (one rclpy publisher per ``/facade/<id>/setpoint``);
+  all panels at once: in one ``/facade/setpoints`` message, as the coordinator does
+  (``--setpoints facade``, the default), or with one rclpy publisher per
+  ``/facade/<id>/setpoint`` (``--setpoints panel``);
 * **observed** (not with ``--quick``; ``--no-observers`` leaves it out): still moving, with
   ``rerun_bridge`` (``viewer:=none``, to an ``.rrd``) and ``bag_recorder`` (its default
   topics) running; their exit summaries are kept.
@@ -29,14 +31,16 @@ statistics (``/diagnostics`` values
 until every panel has been heard on ``panel_states`` (or, where it has no publisher, on its
 own ``closure``). Fan-out is from the start of a commander burst to each panel's setpoint
 callback: the panel processes run through a wrapper this script writes, which times every
-callback of a ``/facade/<id>/setpoint`` subscription (today ``PanelNode._on_setpoint``) with
+callback of a ``/facade/<id>/setpoint`` subscription (today ``PanelNode._on_setpoint``) or,
+for ``/facade/setpoints``, each panel's ``PanelProcess.offer`` (where it takes its entry), with
 ``time.monotonic_ns()`` (CLOCK_MONOTONIC is system-wide, so it compares with the commander's);
 setpoints lost are those sent that no callback saw. Stop is from SIGINT to each process group
 until the process has exited (SIGKILL after 10 s).
 
 For the same N and P, a trivial rclpy peer runs the same phases: P processes of N/P nodes on
 ``EventsExecutor``, each node with one 10 Hz timer publishing a FluidPressure, a two-name
-JointState and a Float64 and one setpoint subscription (with the panel processes' Fast DDS
+JointState and a Float64 and one setpoint subscription (for ``--setpoints facade`` one
+``/facade/setpoints`` subscription per process instead; with the panel processes' Fast DDS
 profile, ``flectofold_ros/fastdds_panel_process.xml``, where there is one, so that it starts
 as they do); the table shows panels / peer.
 
@@ -75,6 +79,8 @@ NOMINAL_HZ = 10.0  # the panel node's default publish_rate_hz
 SAMPLE_SIZE = 50
 BURST_PERIOD_S = 4.0
 BURST_VALUES = (0.2, 0.8)
+#: How the commander sends a burst (``--setpoints``).
+SETPOINT_MODES = ('facade', 'panel')
 STOP_KILL_S = 10.0
 PHASES = ('rest', 'moving', 'observed')
 TARGETS = {'rest_cores': 1.0, 'moving_cores': 1.5, 'rss_mib': 2048.0, 'rate_tolerance': 0.02,
@@ -406,17 +412,21 @@ def _rate(arrivals_ns, window_s):
 
 
 def commander_main(argv):
-    """One publisher per panel's setpoint topic; a burst to every panel every period."""
+    """Send every panel a burst of setpoints every period: one facade message, or one each."""
     parser = argparse.ArgumentParser(prog='bench_graph _commander')
     parser.add_argument('--ids-file', required=True)
     parser.add_argument('--log', required=True)
     parser.add_argument('--period', type=float, default=BURST_PERIOD_S)
     parser.add_argument('--match-timeout', type=float, default=120.0)
+    parser.add_argument('--setpoints', choices=SETPOINT_MODES, default='facade')
     options = parser.parse_args(argv)
     stop = _stop_flag()
-    ids = [line.split()[0] for line in Path(options.ids_file).read_text().split('\n')
-           if line.strip()]
+    lines = [line.split() for line in Path(options.ids_file).read_text().split('\n')
+             if line.strip()]
+    ids = [words[0] for words in lines]
+    processes = len({words[1] for words in lines})
     import rclpy.node
+    from sensor_msgs.msg import JointState
     from std_msgs.msg import Float64
 
     from flectofold_ros import contract
@@ -431,12 +441,23 @@ def commander_main(argv):
         os._exit(0)
     _rclpy_init()
     node = rclpy.node.Node('bench_commander')
-    publishers = [(panel_id, publisher(node, contract.SETPOINT.of(panel_id)))
-                  for panel_id in ids]
+    facade = options.setpoints == 'facade'
+    if facade:  # one message per burst; matched once every process subscribes
+        facade_publisher = publisher(node, contract.FACADE_SETPOINTS)
+        publishers = []
+    else:
+        publishers = [(panel_id, publisher(node, contract.SETPOINT.of(panel_id)))
+                      for panel_id in ids]
+
+    def unmatched_count():
+        if facade:
+            return max(0, processes - facade_publisher.get_subscription_count())
+        return sum(publisher.get_subscription_count() == 0 for _, publisher in publishers)
+
     deadline = time.monotonic() + options.match_timeout
-    unmatched = len(publishers)
+    unmatched = unmatched_count()
     while not stop and time.monotonic() < deadline:
-        unmatched = sum(publisher.get_subscription_count() == 0 for _, publisher in publishers)
+        unmatched = unmatched_count()
         if not unmatched:
             break
         time.sleep(0.2)
@@ -451,6 +472,9 @@ def commander_main(argv):
                 value = BURST_VALUES[burst % 2]
                 message = Float64(data=value)
                 start = time.monotonic_ns()
+                if facade:
+                    records.extend(f'{burst} {start} {panel_id} {value!r}\n' for panel_id in ids)
+                    facade_publisher.publish(JointState(name=ids, position=[value] * len(ids)))
                 for panel_id, setpoint in publishers:
                     records.append(f'{burst} {time.monotonic_ns()} {panel_id} {value!r}\n')
                     setpoint.publish(message)
@@ -472,6 +496,7 @@ def peer_main(argv):
     """Run the trivial peer: N nodes, three 10 Hz topics and one setpoint subscription each."""
     parser = argparse.ArgumentParser(prog='bench_graph _peer')
     parser.add_argument('--ids', required=True)
+    parser.add_argument('--setpoints', choices=SETPOINT_MODES, default='facade')
     options = parser.parse_args(argv)
     stop = _stop_flag()
     rclpy = _rclpy_init()
@@ -492,7 +517,8 @@ def peer_main(argv):
             self.pressure = publisher(self, contract.PRESSURE.of(panel_id))
             self.joints = publisher(self, contract.JOINT_STATES.of(panel_id))
             self.closure = publisher(self, contract.CLOSURE.of(panel_id))
-            subscription(self, contract.SETPOINT.of(panel_id), self.on_setpoint)
+            if options.setpoints == 'panel':
+                subscription(self, contract.SETPOINT.of(panel_id), self.on_setpoint)
             self.create_timer(1.0 / NOMINAL_HZ, self.tick)
 
         def on_setpoint(self, message):
@@ -516,6 +542,15 @@ def peer_main(argv):
             os._exit(0)
         nodes.append(Peer(panel_id))
         executor.add_node(nodes[-1])
+    if options.setpoints == 'facade':  # one subscription per process, as the panels have
+        by_id = {peer.panel_id: peer for peer in nodes}
+
+        def on_setpoints(message):
+            for name, closure in zip(message.name, message.position):
+                if name in by_id:
+                    by_id[name].setpoint = closure
+
+        subscription(nodes[0], contract.FACADE_SETPOINTS, on_setpoints)
     print(f'peer: {len(nodes)} nodes ready', flush=True)
     while not stop:
         executor.spin_once(timeout_sec=0.1)  # EventsExecutor.spin() never returns here
@@ -528,12 +563,14 @@ def peer_main(argv):
 
 # == the wrapper the panel processes run through ================================================
 
-WRAPPER = r'''"""Written by bench/bench_graph.py: panel_group with its setpoint callbacks timed.
+WRAPPER = r'''"""Written by bench/bench_graph.py: panel_group with its setpoints timed.
 
-Every callback of a /facade/<id>/setpoint subscription (PanelNode._on_setpoint today, whatever
-the node calls it) is wrapped to note (time.monotonic_ns(), panel id, value); a thread writes
-the notes to $BENCH_SETPOINT_LOG every 0.5 s, and os._exit (the panel processes' fast exit)
-and atexit write the rest first. "# wrapped" lines name each callback wrapped.
+$BENCH_SETPOINTS "panel": every callback of a /facade/<id>/setpoint subscription
+(PanelNode._on_setpoint today, whatever the node calls it) is wrapped to note
+(time.monotonic_ns(), panel id, value). "facade": PanelProcess.offer, where each panel of the
+process takes its entry of a /facade/setpoints message, is wrapped to note the same. A thread
+writes the notes to $BENCH_SETPOINT_LOG every 0.5 s, and os._exit (the panel processes' fast
+exit) and atexit write the rest first. "# wrapped" lines name what was wrapped.
 """
 import atexit
 from collections import deque
@@ -617,7 +654,21 @@ def _timed_subscription(node, topic, callback, *args, **kwargs):
     return _subscription(node, topic, callback, *args, **kwargs)
 
 
-_panel.subscription = _timed_subscription
+
+
+def _timed_offer(offer):
+    def timed(self, index, value, logger):
+        _notes.append((time.monotonic_ns(), self.panels[index].panel_id, float(value)))
+        return offer(self, index, value, logger)
+    return timed
+
+
+if os.environ.get('BENCH_SETPOINTS') == 'facade':
+    _panel.PanelProcess.offer = _timed_offer(_panel.PanelProcess.offer)
+    with _lock:
+        _out.write('# wrapped facade PanelProcess.offer\n')
+else:
+    _panel.subscription = _timed_subscription
 from flectofold_ros.executables import panel_group  # noqa: E402
 
 sys.argv = ['panel_group', *sys.argv[1:]]
@@ -888,7 +939,8 @@ def measure(setup, kind, children):
                            env, directory / 'probe.log', events=True)
     commander = children.start('commander', [*me, '_commander', '--ids-file',
                                              str(setup.ids_file), '--log',
-                                             str(directory / 'commander.log')],
+                                             str(directory / 'commander.log'),
+                                             '--setpoints', options.setpoints],
                                env, directory / 'commander_err.log', events=True)
     if probe.expect('ready', 60.0) is None:
         result['error'] = f'probe did not start: {probe.log_tail()}'
@@ -900,9 +952,10 @@ def measure(setup, kind, children):
             command = [sys.executable, str(setup.wrapper), '--group', f'{k}/{setup.processes}',
                        '--facade', str(setup.facade), '--ros-args',
                        '-p', 'setpoint_timeout_s:=600.0']
-            child_env = dict(env, BENCH_SETPOINT_LOG=str(directory / f'setpoints_{k}.log'))
+            child_env = dict(env, BENCH_SETPOINT_LOG=str(directory / f'setpoints_{k}.log'),
+                             BENCH_SETPOINTS=options.setpoints)
         else:
-            command = [*me, '_peer', '--ids', ','.join(part)]
+            command = [*me, '_peer', '--ids', ','.join(part), '--setpoints', options.setpoints]
             child_env = dict(env)
             if PANEL_PROFILE.exists() and not any(
                     env.get(name) for name in ('FASTRTPS_DEFAULT_PROFILES_FILE',
@@ -1378,14 +1431,18 @@ def markdown(rows, machine, options, configs=()):
              '| ' + ' | '.join(HEADER) + ' |', '|' + '---|' * len(HEADER)]
     lines += ['| ' + ' | '.join(cell.replace('|', '/') for cell in display(row)) + ' |'
               for row in rows]
+    burst = ('one `/facade/setpoints` message, as the coordinator sends, timed where each '
+             'panel takes its entry' if options.get('setpoints', 'panel') == 'facade'
+             else "one `Float64` on each panel's own `setpoint`")
     lines += ['', 'Cores: CPU seconds (utime+stime of the processes) per wall second; RSS: '
               'the largest sum of VmRSS in the window. Jitter: p50/p99 of |arrival interval - '
               "0.1 s| of `/facade/panel_states` per process, as the probe's middleware received "
               'it (`*`: of the sampled '
               "panels' `closure`, where no process publishes `panel_states`); tick: what the "
               'processes report in `/diagnostics`. Fan-out: commander burst start to each '
-              "panel's setpoint callback. Per-panel Hz: mean over a sample of up to 50 panels "
-              'of joint_states, pressure, closure. Every figure: the JSON next to this file.']
+              f"panel's setpoint callback; a burst is {burst}. Per-panel Hz: mean over a sample "
+              'of up to 50 panels of joint_states, pressure, closure. Every figure: the JSON '
+              'next to this file.']
     loads = [figures['load_average'][0] for config in configs
              for kind in ('panels', 'peer') for figures in
              ((config.get(kind) or {}).get('phases') or {}).values()]
@@ -1436,6 +1493,10 @@ def parse(argv):
     parser.add_argument('--domain', type=int, default=60,
                         help='first ROS_DOMAIN_ID; each measurement takes the next')
     parser.add_argument('--keep', action='store_true', help='keep the temporary directory')
+    parser.add_argument('--setpoints', choices=SETPOINT_MODES, default='facade',
+                        help='how the commander sends: one /facade/setpoints message per '
+                             'burst, as the coordinator does (facade), or one Float64 per '
+                             "panel's /facade/<id>/setpoint (panel)")
     options = parser.parse_args(argv)
     quick = options.quick
     options.counts = options.counts or ([36] if quick else [36, 200, 500, 1000])
@@ -1479,10 +1540,12 @@ def main(argv):
                     if config[kind].get('error'):
                         log(f'  {kind}: {config[kind]["error"]}')
                 wrapped = config['panels'].get('setpoint_callbacks_wrapped')
-                if wrapped is not None and wrapped != [len(s) for s in setup.slices]:
+                expected = ([1] * processes if options.setpoints == 'facade'
+                            else [len(s) for s in setup.slices])
+                if wrapped is not None and wrapped != expected:
                     failed = True
-                    log(f'  FAILED: the wrapper timed {wrapped} setpoint callbacks of '
-                        f'{[len(s) for s in setup.slices]} panels: no fan-out figure')
+                    log(f'  FAILED: the wrapper timed {wrapped} setpoint callbacks, not '
+                        f'{expected}: no fan-out figure')
                 config['rows'] = rows_of(config)
                 configs.append(config)
                 for row in config['rows']:

@@ -127,6 +127,10 @@ FACADE_JOINT_STATES = Topic(f'{FACADE_NAMESPACE}/joint_states', 'sensor_msgs/msg
 #: Every panel of one panel process, one point each (:mod:`flectofold_ros.panel_states`).
 PANEL_STATES = Topic(f'{FACADE_NAMESPACE}/panel_states', 'sensor_msgs/msg/PointCloud2',
                      FACADE_STREAM)
+#: Every panel's commanded closure in one message (``panel_node.md``): ``name`` panel ids,
+#: ``position`` closures. The coordinator commands through it; each panel process takes its
+#: own panels' entries. Depth 10, as a panel's ``setpoint``.
+FACADE_SETPOINTS = Topic(f'{FACADE_NAMESPACE}/setpoints', 'sensor_msgs/msg/JointState')
 #: The facade-level state topics: what observers subscribe to.
 FACADE_STATE = (FACADE_JOINT_STATES, PANEL_STATES)
 #: The folded facade for RViz and Foxglove (``markers.md``), in :data:`SITE_FRAME`. Latched,
@@ -193,12 +197,13 @@ FAULT_SCRIPT_NODE = 'fault_script'
 #: Namespace of the facade-wide nodes (coordinator, monitor, bridge).
 FACADE_NODE_NAMESPACE = FACADE_NAMESPACE
 
-#: What the recorder records unless told otherwise: the facade-level state, the facade's inputs,
-#: ``/diagnostics`` and ``/clock``; not the per-panel topics (``/facade/**`` adds them).
-RECORDED_BY_DEFAULT = (FACADE_JOINT_STATES.name, PANEL_STATES.name, SUN.name, WIND_SPEED.name,
-                       DNI.name, DHI.name, WIND_DIRECTION.name, AIR_TEMPERATURE.name,
-                       OVERRIDE.name, OVERRIDE_CLEAR.name, INJECT_FAULT.name,
-                       DIAGNOSTICS.name, CLOCK.name)
+#: What the recorder records unless told otherwise: the facade-level state and setpoints, the
+#: facade's inputs, ``/diagnostics`` and ``/clock``; not the per-panel topics (``/facade/**``
+#: adds them).
+RECORDED_BY_DEFAULT = (FACADE_JOINT_STATES.name, PANEL_STATES.name, FACADE_SETPOINTS.name,
+                       SUN.name, WIND_SPEED.name, DNI.name, DHI.name, WIND_DIRECTION.name,
+                       AIR_TEMPERATURE.name, OVERRIDE.name, OVERRIDE_CLEAR.name,
+                       INJECT_FAULT.name, DIAGNOSTICS.name, CLOCK.name)
 
 # -- diagnostics ------------------------------------------------------------------------------
 
@@ -212,6 +217,12 @@ DIAGNOSTIC_INJECTED_FAULTS = 'injected_faults'
 DIAGNOSTIC_FAULT_REQUESTS_APPLIED = 'fault_requests_applied'
 DIAGNOSTIC_FAULT_REQUESTS_REFUSED = 'fault_requests_refused'
 DIAGNOSTIC_LAST_FAULT_REFUSAL = 'last_fault_refusal'
+#: ``/diagnostics`` keys of a panel process's status: ``/facade/setpoints`` messages it refused
+#: whole since start (lists that do not pair up, a panel twice, a panel not of the facade), and
+#: the reason of the last refusal. A refused closure of one panel counts as that panel's
+#: ``setpoints_rejected``.
+DIAGNOSTIC_SETPOINT_MESSAGES_REFUSED = 'setpoint_messages_refused'
+DIAGNOSTIC_LAST_SETPOINTS_REFUSAL = 'last_setpoints_refusal'
 #: ``/diagnostics`` key of a panel's status: how far its simulation is behind the clock [s].
 DIAGNOSTIC_BEHIND_S = 'behind_by_s'
 #: ``/diagnostics`` key of a panel's status: states its loop kept but it did not publish,

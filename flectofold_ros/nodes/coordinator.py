@@ -2,11 +2,11 @@
 
 Each ``control.period_s`` of ROS time it runs
 :class:`flectofold_model.scheduling.FacadeSchedule` on the latest sun vector and publishes
-each panel's commanded closure; between decisions it repeats them every ``setpoint_period_s``
-as the panels' watchdog heartbeat. The storm latch is not left to the decision period: each
-wind sample goes to it on arrival, a short timer evaluates it while a trip or release is
-due, and a change is decided and published at once. Topics, parameters and QoS:
-``msg_docs/coordinator_node.md``.
+every panel's commanded closure in one ``/facade/setpoints`` message; between decisions it
+repeats it every ``setpoint_period_s`` as the panels' watchdog heartbeat. The storm latch is
+not left to the decision period: each wind sample goes to it on arrival, a short timer
+evaluates it while a trip or release is due, and a change is decided and published at once.
+Topics, parameters and QoS: ``msg_docs/coordinator_node.md``.
 """
 
 from collections import Counter
@@ -15,7 +15,7 @@ import sys
 
 from rclpy.clock import Clock, ClockType
 from rclpy.node import Node
-from std_msgs.msg import Float64
+from sensor_msgs.msg import JointState
 
 from flectofold_model.environment import SunEphemeris
 from flectofold_model.facade import DEFAULT_FACADE, load_facade
@@ -23,7 +23,7 @@ from flectofold_model.scheduling import FacadeSchedule
 from flectofold_model.scheduling.facade_schedule import representative_panel
 from flectofold_model.scheduling.scheduler import OverrideRefused
 from flectofold_model.shading import ShadingTable
-from flectofold_ros import contract, diagnostics, panel_states
+from flectofold_ros import contract, diagnostics, facade_setpoints, panel_states
 from flectofold_ros.interfaces import publisher, subscription
 from flectofold_ros.parameters import declare_all, double, string
 from flectofold_ros.runner import Program, run_nodes
@@ -76,8 +76,7 @@ class CoordinatorNode(Node):
         self._sun = None
         self._dni = None
         self._faulted = dict.fromkeys(self.facade.panel_ids, False)
-        self._setpoints = [publisher(self, contract.SETPOINT.of(panel_id))
-                           for panel_id in self.facade.panel_ids]
+        self._setpoints = publisher(self, contract.FACADE_SETPOINTS)
         self._index = panel_states.index_lookup(self.facade.panel_ids)
         subscription(self, contract.PANEL_STATES, self._on_panel_states, contract.OBSERVER)
         subscription(self, contract.SUN, self._on_sun)
@@ -302,8 +301,11 @@ class CoordinatorNode(Node):
     def _heartbeat(self):
         if self.commanded is None:
             return
-        for setpoint, closure in zip(self._setpoints, self.commanded):
-            setpoint.publish(Float64(data=float(closure)))
+        message = JointState()
+        message.header.stamp = self.get_clock().now().to_msg()
+        message.name, message.position = facade_setpoints.fields(self.facade.panel_ids,
+                                                                 self.commanded)
+        self._setpoints.publish(message)
 
     # -- diagnostics ------------------------------------------------------------------------
 

@@ -35,7 +35,7 @@ from flectofold_model.control.hardware import SimulatedCushions
 from flectofold_model.control.panel_loops import LoopSample, panel_indices
 from flectofold_model.facade import DEFAULT_FACADE, load_facade
 from flectofold_model.kinematics.kinds import panel_kind
-from flectofold_ros import contract, diagnostics, panel_states
+from flectofold_ros import contract, diagnostics, facade_setpoints, panel_states
 from flectofold_ros.fault_injection import FaultInjector, FaultRequestError, parse_request
 from flectofold_ros.interfaces import publisher, service, subscription
 from flectofold_ros.parameters import choice, declare_all, double, integer, string
@@ -240,6 +240,10 @@ class PanelProcess:
         for index, panel in enumerate(panels):
             panel.attach(self, index)
         self._start_fault_injection(facade_ids)
+        self._index_of = {panel.panel_id: index for index, panel in enumerate(panels)}
+        self.setpoint_messages_refused, self.last_setpoints_refusal = 0, ''
+        self._setpoint_refusals_since_report = 0
+        subscription(settings, contract.FACADE_SETPOINTS, self._on_facade_setpoints)
         settings.add_post_set_parameters_callback(self._apply_parameters)
         settings.create_timer(self.control_period_s, self._tick)
         self._report_slices = [range(start, min(start + STATUSES_PER_MESSAGE, count))
@@ -272,6 +276,7 @@ class PanelProcess:
     def _start_fault_injection(self, facade_ids):
         ids = [panel.panel_id for panel in self.panels]
         self._facade_ids = list(facade_ids) if facade_ids is not None else ids
+        self._facade_id_set = frozenset(self._facade_ids)
         driver = self.loops.driver
         self.injector = FaultInjector(driver.plant, ids) \
             if isinstance(driver, SimulatedCushions) else None
@@ -320,6 +325,25 @@ class PanelProcess:
                            throttle_duration_sec=1.0)
             return
         # the next tick hands it to the loop (with every panel's, after the watchdog)
+
+    def _on_facade_setpoints(self, message):
+        try:
+            pairs = facade_setpoints.entries(message.name, message.position)
+            unknown = [name for name, _ in pairs if name not in self._facade_id_set]
+            if unknown:
+                raise facade_setpoints.SetpointsMessageError(
+                    f'{", ".join(unknown[:5])} not of this facade')
+        except facade_setpoints.SetpointsMessageError as error:
+            self.setpoint_messages_refused += 1
+            self._setpoint_refusals_since_report += 1
+            self.last_setpoints_refusal = str(error)
+            self.settings.get_logger().warning(
+                f'refused {contract.FACADE_SETPOINTS.name}: {error}', throttle_duration_sec=1.0)
+            return
+        for name, closure in pairs:
+            index = self._index_of.get(name)
+            if index is not None:  # else another process's panel
+                self.offer(index, closure, self.panels[index].get_logger())
 
     def reset_faults(self, index):
         """Clear panel ``index``'s latched fault; return what was cleared."""
@@ -518,6 +542,8 @@ class PanelProcess:
             contract.DIAGNOSTIC_FAULT_REQUESTS_APPLIED: self.fault_requests_applied,
             contract.DIAGNOSTIC_FAULT_REQUESTS_REFUSED: self.fault_requests_refused,
             contract.DIAGNOSTIC_LAST_FAULT_REFUSAL: self.last_fault_refusal,
+            contract.DIAGNOSTIC_SETPOINT_MESSAGES_REFUSED: self.setpoint_messages_refused,
+            contract.DIAGNOSTIC_LAST_SETPOINTS_REFUSAL: self.last_setpoints_refusal,
         }
         level, message = diagnostics.OK, f'{len(self.panels)} panels'
         statistics = getattr(self.loops.driver, 'statistics', None)
@@ -532,6 +558,12 @@ class PanelProcess:
                 f'{message}; refused {self._fault_refusals_since_report} fault request(s): '
                 f'{self.last_fault_refusal}')
             self._fault_refusals_since_report = 0
+        if self._setpoint_refusals_since_report:
+            level = max(level, diagnostics.WARN)
+            message = (
+                f'{message}; refused {self._setpoint_refusals_since_report} setpoints '
+                f'message(s): {self.last_setpoints_refusal}')
+            self._setpoint_refusals_since_report = 0
         return diagnostics.status(self.settings, level, 'panel process',
                                   self.settings.get_name(), message, figures)
 

@@ -8,7 +8,8 @@
 (``t`` is this process's monotonic clock, which is the host's: the test compares it with its
 own). It prints ``{"event": "ready"}`` once its publishers and subscriptions exist. A line
 ``send 0.8`` on stdin makes it publish that closure setpoint to every panel at 5 Hz from then
-on (``stop`` stops sending); names and QoS come from the contract, as everywhere else.
+on, in one ``/facade/setpoints`` message as the coordinator does (``stop`` stops sending);
+names and QoS come from the contract, as everywhere else.
 """
 
 import json
@@ -40,8 +41,8 @@ def main():
     def sample(topic, panel, value):
         emit(event='sample', topic=topic, panel=panel, value=value, t=time.monotonic())
 
-    float64 = message_class(contract.SETPOINT.msgtype)
-    setpoints = {panel: publisher(node, contract.SETPOINT.of(panel)) for panel in panels}
+    joint_state = message_class(contract.FACADE_SETPOINTS.msgtype)
+    setpoints = publisher(node, contract.FACADE_SETPOINTS)
     for panel in panels:
         subscription(node, contract.CLOSURE.of(panel),
                      lambda m, p=panel: sample('closure', p, m.data))
@@ -53,8 +54,7 @@ def main():
 
     def send():
         if setpoint[0] is not None:
-            for panel_publisher in setpoints.values():
-                panel_publisher.publish(float64(data=setpoint[0]))
+            setpoints.publish(joint_state(name=panels, position=[setpoint[0]] * len(panels)))
 
     def read_commands():
         for line in sys.stdin:

@@ -173,3 +173,15 @@ def domain_for(offset):
     """
     worker = int(os.environ.get('PYTEST_XDIST_WORKER', 'gw0')[2:]) % 4
     return 10 + 20 * worker + (os.getpid() + offset) % 20
+
+
+def on_facade_setpoints(node, callback):
+    """Subscribe ``node`` to ``/facade/setpoints``; ``callback(panel_id, closure)`` per entry."""
+    from flectofold_ros import contract
+    from flectofold_ros.interfaces import subscription
+
+    def each_entry(message):
+        for name, closure in zip(message.name, message.position):
+            callback(name, closure)
+
+    return subscription(node, contract.FACADE_SETPOINTS, each_entry)

@@ -27,7 +27,7 @@ PANEL_SUFFIXES = {topic.suffix for topic in (*contract.PANEL_OUTPUTS, contract.S
 
 def global_topics():
     return [contract.CLOCK, contract.DIAGNOSTICS, contract.SUN, contract.WIND_SPEED,
-            contract.DNI, contract.OVERRIDE, contract.OVERRIDE_CLEAR]
+            contract.DNI, contract.OVERRIDE, contract.OVERRIDE_CLEAR, contract.FACADE_SETPOINTS]
 
 
 def test_every_name_is_absolute_and_panel_names_lie_under_the_panel():

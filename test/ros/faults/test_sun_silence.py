@@ -11,7 +11,7 @@ from builtin_interfaces.msg import Time
 from geometry_msgs.msg import Vector3Stamped
 import numpy as np
 import pytest
-from ros_graph import domain_for, Graph
+from ros_graph import domain_for, Graph, on_facade_setpoints
 from rosgraph_msgs.msg import Clock
 
 from flectofold_model.facade.description import build_facade
@@ -39,9 +39,9 @@ class Day:
         self.setpoints = {p: [] for p in panel_ids}
         self.status = {p: [] for p in panel_ids}
         self.coordinator = []
+        on_facade_setpoints(graph.node, lambda p, closure: self.setpoints[p].append(
+            (self.now_s, closure)))
         for p in panel_ids:
-            subscription(graph.node, contract.SETPOINT.of(p),
-                         lambda m, p=p: self.setpoints[p].append((self.now_s, m.data)))
             subscription(graph.node, contract.STATUS.of(p),
                          lambda m, p=p: self.status[p].append((self.now_s, m.data)))
         subscription(graph.node, contract.DIAGNOSTICS, self._on_diagnostics)
@@ -90,7 +90,7 @@ def test_a_silent_sun_holds_the_commands_and_is_reported_then_recovers(small_fac
                                   '-p', f'sun_timeout_s:={SUN_TIMEOUT_S}')
         day = Day(graph, facade.panel_ids)
         day.now_s = float(np.ceil(epochs[0] / 60.0) * 60.0) - 30.0
-        setpoint = contract.SETPOINT.of(facade.panel_ids[0]).name
+        setpoint = contract.FACADE_SETPOINTS.name
         assert graph.spin_until(lambda: graph.node.count_publishers(setpoint) and
                                 all(day.status.values()), 60.0), 'graph not up'
         day.run(day.now_s + 240.0, sun)  # four minutes of sun

@@ -7,7 +7,7 @@ from builtin_interfaces.msg import Time
 from geometry_msgs.msg import Vector3Stamped
 import numpy as np
 import pytest
-from ros_graph import domain_for, Graph
+from ros_graph import domain_for, Graph, on_facade_setpoints
 from rosgraph_msgs.msg import Clock
 
 from flectofold_model.facade.description import build_facade
@@ -47,12 +47,11 @@ class SimulatedDay:
         for p in panel_ids:
             subscription(node, contract.PRESSURE.of(p),
                          lambda m, p=p: self.state_s.update({p: seconds(m.header.stamp)}))
-            subscription(node, contract.SETPOINT.of(p),
-                         lambda m, p=p: self.setpoints[p].append(m.data))
             subscription(node, contract.CLOSURE.of(p),
                          lambda m, p=p: self.closure[p].append(m.data))
             subscription(node, contract.STATUS.of(p),
                          lambda m, p=p: self.status[p].append(m.data))
+        on_facade_setpoints(node, lambda p, closure: self.setpoints[p].append(closure))
         self.now_s = None
 
     def tick(self, epoch_s, wall_s=0.01):
@@ -110,9 +109,9 @@ def day(small_facade, recorded_sun):
     simulated.tick(start)
     assert graph.spin_until(lambda: all(simulated.status.values()), 60.0), \
         [graph.stop(p)[1] for p in (panels, coordinator)]
-    setpoint = contract.SETPOINT.of(facade.panel_ids[0]).name
     assert graph.spin_until(lambda: coordinator.poll() is None
-                            and graph.node.count_publishers(setpoint), 30.0)
+                            and graph.node.count_publishers(contract.FACADE_SETPOINTS.name),
+                            30.0)
     for epoch, vector in zip(epochs, vectors):
         simulated.run(epoch - LEAD_S, 1.0)
         simulated.publish_sun(epoch, vector)

@@ -15,7 +15,7 @@ from builtin_interfaces.msg import Time
 from geometry_msgs.msg import Vector3Stamped
 import numpy as np
 import pytest
-from ros_graph import domain_for, Graph
+from ros_graph import domain_for, Graph, on_facade_setpoints
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64
@@ -65,9 +65,8 @@ class StormDay:
         self.logs = []
         self.diagnostics = {}
         lookup = panel_states.index_lookup(panel_ids)
-        for p in panel_ids:
-            subscription(node, contract.SETPOINT.of(p),
-                         lambda m, p=p: self.setpoints[p].append((self.now_s, m.data)))
+        on_facade_setpoints(node, lambda p, closure: self.setpoints[p].append((self.now_s,
+                                                                               closure)))
         subscription(node, contract.PANEL_STATES,
                      lambda m: self._on_states(m, lookup), contract.OBSERVER)
         subscription(node, ROSOUT, lambda m: self.logs.append((self.now_s, m.name, m.msg)))
@@ -148,7 +147,7 @@ def storm(small_facade_text, tmp_path_factory):
     epochs, vectors = (lambda data: (data[:, 0], data[:, 1:]))(
         np.loadtxt(SUN_PATH, delimiter=',', skiprows=2))
     noon = len(epochs) // 2
-    setpoint = contract.SETPOINT.of(facade.panel_ids[0]).name
+    setpoint = contract.FACADE_SETPOINTS.name
     inputs = (day.sun, day.wind, day.dni, day.override)
     ready = lambda: (all(p.get_subscription_count() for p in inputs)  # noqa: E731
                      and graph.node.count_publishers(setpoint) and day.states)
