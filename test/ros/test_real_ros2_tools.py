@@ -198,3 +198,17 @@ def test_ros2_topic_pub_setpoints_move_the_panel(ros2_tools, panel):
     bad.publish(Float64(data=7.0))
     graph.spin_for(2.0)
     assert float(latest['r00c00']['setpoint']) == pytest.approx(0.8)
+
+
+def test_ros2_topic_pub_a_facade_setpoints_message_sets_the_panel(ros2_tools, panel):
+    graph, latest = panel
+    topic = contract.FACADE_SETPOINTS
+    pub = ros2_tools.start(graph, 'topic', 'pub', '--rate', '1', topic.name, topic.msgtype,
+                           '{name: [r00c01, r00c00], position: [0.9, 0.3]}')
+    try:
+        taken = graph.spin_until(
+            lambda: float(latest['r00c00']['setpoint']) == pytest.approx(0.3), 30.0)
+    finally:
+        os.killpg(pub.pid, signal.SIGINT)
+        pub.communicate(timeout=30)
+    assert taken, latest['r00c00']
