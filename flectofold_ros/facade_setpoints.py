@@ -10,8 +10,6 @@ takes the entries of its own panels; those of other processes' panels are theirs
 Pure Python (no rclpy). Field table: ``msg_docs/panel_node.md``.
 """
 
-import math
-
 
 class SetpointsMessageError(ValueError):
     """A facade setpoints message that cannot be read as pairs of panel id and closure."""
@@ -38,6 +36,6 @@ def entries(names, positions):
 def fields(panel_ids, closures):
     """Return ``(name, position)`` for a message commanding ``closures`` to ``panel_ids``."""
     closures = [float(value) for value in closures]
-    if len(closures) != len(panel_ids) or not all(math.isfinite(c) for c in closures):
-        raise ValueError('one finite closure per panel id is needed')
+    if len(closures) != len(panel_ids):
+        raise ValueError(f'{len(closures)} closure(s) for {len(panel_ids)} panel id(s)')
     return list(panel_ids), closures

@@ -577,9 +577,9 @@ def loop_start_s(now_s, until_next_tick_s, period_s):
     periods after it, falls midway between two period ends: a tick a little early or late
     still finds exactly one new state. Started at the tick itself, a tick a hair early found
     none and the next two (1 in 100 intervals of ``/facade/panel_states`` 0 or 200 ms instead
-    of 100); started half a period before a first tick that came late (a busy start), by up
-    to half a period, the period ends fell on the due instants and a process published every
-    few seconds at 0 and 200 ms intervals (1,000 panels in two processes: p99 100 ms). A real
+    of 100); started half a period before a first tick that ran about half a period late (a
+    busy start), the period ends fell on the due instants and that process published at 0
+    and 200 ms intervals all its life (1,000 panels in two processes: p99 100 ms). A real
     driver's loop runs one period per tick whatever its phase.
     """
     due_s = now_s

@@ -14,25 +14,11 @@ from ros_graph import domain_for, Graph
 from sensor_msgs.msg import JointState
 
 from flectofold_ros import contract, panel_states
-from flectofold_ros.facade_setpoints import entries, fields, SetpointsMessageError
 from flectofold_ros.interfaces import publisher, subscription
 
+pytestmark = pytest.mark.graph
 PROCESSES = {'panel_group_a': ['r00c00', 'r00c01'], 'panel_group_b': ['r01c00', 'r01c01']}
 PANELS = [panel for panels in PROCESSES.values() for panel in panels]
-
-
-def test_entries_pair_names_with_closures_and_refuse_what_does_not_pair():
-    assert entries(['r00c00', 'r00c01'], [0.2, 0.4]) == [('r00c00', 0.2), ('r00c01', 0.4)]
-    assert math.isnan(entries(['r00c00'], [math.nan])[0][1])  # the guard's to refuse
-    with pytest.raises(SetpointsMessageError, match='1 name.*2 position'):
-        entries(['r00c00'], [0.2, 0.4])
-    with pytest.raises(SetpointsMessageError, match='r00c00 named more than once'):
-        entries(['r00c00', 'r00c01', 'r00c00'], [0.2, 0.4, 0.6])
-    assert fields(['r00c00'], [1]) == (['r00c00'], [1.0])
-    with pytest.raises(ValueError):
-        fields(['r00c00', 'r00c01'], [0.5])
-    with pytest.raises(ValueError):
-        fields(['r00c00'], [math.inf])
 
 
 class Probe:
