@@ -493,7 +493,7 @@ def commander_main(argv):
 
 
 def peer_main(argv):
-    """Run the trivial peer: N nodes, three 10 Hz topics and one setpoint subscription each."""
+    """Run the trivial peer: N nodes, three 10 Hz topics each, setpoints as the panels have."""
     parser = argparse.ArgumentParser(prog='bench_graph _peer')
     parser.add_argument('--ids', required=True)
     parser.add_argument('--setpoints', choices=SETPOINT_MODES, default='facade')
@@ -652,8 +652,6 @@ def _timed_subscription(node, topic, callback, *args, **kwargs):
     if match:
         callback = _timed(callback, match.group(1))
     return _subscription(node, topic, callback, *args, **kwargs)
-
-
 
 
 def _timed_offer(offer):

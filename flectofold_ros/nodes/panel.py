@@ -549,18 +549,14 @@ class PanelProcess:
             if self.loops.driver.comms_lost:
                 level, message = diagnostics.ERROR, (
                     f'{message}; comms lost: {figures["modbus_last_error"]}')
-        if self._fault_refusals_since_report:
-            level = max(level, diagnostics.WARN)
-            message = (
-                f'{message}; refused {self._fault_refusals_since_report} fault request(s): '
-                f'{self.last_fault_refusal}')
-            self._fault_refusals_since_report = 0
-        if self._setpoint_refusals_since_report:
-            level = max(level, diagnostics.WARN)
-            message = (
-                f'{message}; refused {self._setpoint_refusals_since_report} setpoints '
-                f'message(s): {self.last_setpoints_refusal}')
-            self._setpoint_refusals_since_report = 0
+        for count, what, reason in (
+                (self._fault_refusals_since_report, 'fault request(s)', self.last_fault_refusal),
+                (self._setpoint_refusals_since_report, 'setpoints message(s)',
+                 self.last_setpoints_refusal)):
+            if count:  # WARN in the report after refusals
+                level, message = max(level, diagnostics.WARN), (
+                    f'{message}; refused {count} {what}: {reason}')
+        self._fault_refusals_since_report = self._setpoint_refusals_since_report = 0
         return diagnostics.status(self.settings, level, 'panel process',
                                   self.settings.get_name(), message, figures)
 
