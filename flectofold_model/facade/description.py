@@ -75,7 +75,7 @@ _SURFACE_KEYS = {'plane': (), 'cylinder': ('radius_m',),
                  'saddle': ('curvature_u_per_m', 'curvature_v_per_m'), 'obj': ('path',)}
 _PANEL_DEFAULTS = {'min_prefold_rad': math.radians(5.0),
                    'max_moulded_prefold_rad': math.radians(15.0), 'closed_clearance_m': 0.02}
-_CONTROL_KEYS = {'period_s', 'shading_target', 'look_ahead_s'}
+_CONTROL_KEYS = {'period_s', 'shading_target', 'look_ahead_s', 'controller'}
 #: A facade's name ends up in recording ids and file names: a short plain word.
 _NAME = re.compile(r'[A-Za-z0-9][A-Za-z0-9_.-]{0,63}')
 
@@ -389,15 +389,24 @@ def _patches(surface, grid, base_directory):
 
 
 def _control(control):
+    from flectofold_model.scheduling.predictive import CONTROLLERS, PredictiveParameters
     from flectofold_model.scheduling.scheduler import SchedulerParameters
-    known = _CONTROL_KEYS | {f.name for f in fields(SchedulerParameters)}
+    predictive = {f.name for f in fields(PredictiveParameters)}
+    known = _CONTROL_KEYS | predictive | {f.name for f in fields(SchedulerParameters)}
     for key, value in control.items():
         if key not in known:
             raise FacadeError(f'control.{_key(key)}: unknown key '
                               f'(known: {", ".join(sorted(known))})')
+        if key == 'controller':
+            if value not in CONTROLLERS:
+                raise FacadeError(f'control.controller: must be one of '
+                                  f'{", ".join(CONTROLLERS)}, got {short_repr(value)}')
+            continue
         _check_type(f'control.{key}', value, float)
-    scheduler = {k: v for k, v in control.items() if k not in _CONTROL_KEYS}
+    scheduler = {k: v for k, v in control.items()
+                 if k not in _CONTROL_KEYS and k not in predictive}
     _build('control', lambda: SchedulerParameters(**scheduler))
+    _build('control', lambda: PredictiveParameters.of(control))
     target = control.get('shading_target', 0.9)
     if not 0 <= target <= 1:
         raise FacadeError(f'control.shading_target: must lie in [0, 1], got {target:g}')

@@ -56,12 +56,14 @@ References
    185-221, doi:10.3233/FDE-150040.
 """
 
+import dataclasses
 from dataclasses import dataclass
 import math
 import re
 
 import numpy as np
 
+from flectofold_model.environment.clear_sky import clear_sky_dni
 from flectofold_model.environment.sun import Site, solar_position
 from flectofold_model.environment.weather import (into_reference_year, REFERENCE_YEAR,
                                                   site_distance_deg, Weather, weather_at)
@@ -69,11 +71,24 @@ from flectofold_model.scheduling.day_report import _interpolate, CANDIDATE_CLOSU
 from flectofold_model.scheduling.facade_schedule import (full_close_air_nl,
                                                          representative_panel,
                                                          scheduler_parameters)
+from flectofold_model.scheduling.frontier import ClosureProblem, frontier, limit_at, Limits
+from flectofold_model.scheduling.predictive import (DEFAULT_CONTROLLER, PlanInputs,
+                                                    PredictiveController,
+                                                    PredictiveParameters)
 from flectofold_model.scheduling.scheduler import Reason, Scheduler
 from flectofold_model.shading.ray_casting import choose_candidate, SUNLIT_MIN_SZ
 from flectofold_model.shading.table import ShadingTable
 
-STRATEGIES = ('scheduled', 'threshold', 'always open', 'always closed')
+#: The rows of the report with the default controller (``target rule`` becomes
+#: ``predictive`` on a facade that runs the target rule).
+STRATEGIES = ('scheduled', 'target rule', 'threshold', 'always open', 'always closed', 'limit')
+#: The row of the controller the facade does not run, beside ``scheduled``.
+OTHER_ROW = {'predictive': 'predictive', 'target': 'target rule'}
+#: The threshold family: ``on`` thresholds [W/m2] and ``off / on`` ratios swept.
+THRESHOLD_ON_W_M2 = (100.0, 200.0, 300.0, 400.0, 500.0)
+THRESHOLD_OFF_RATIOS = (0.5, 0.8)
+#: The target rule's family: ``shading_target`` swept.
+SHADING_TARGETS = (0.5, 0.7, 0.8, 0.9, 0.95, 0.99)
 #: A panel counts toward the view hours while its view fraction is at least this [-]; the
 #: folded demonstrator module reaches 0.79, the flat one 0.
 VIEW_LEVEL = 0.5
@@ -158,6 +173,23 @@ class AnnualReport:
     site_offset_deg: float
     """Great-circle distance between the facade's site and the file's station [deg]."""
     strategies: tuple
+    """:class:`StrategyFigures` of scheduled, the other controller, threshold, always open,
+    always closed and the limit (its view the limit's upper bound at scheduled's
+    blocking)."""
+    controller: str = DEFAULT_CONTROLLER
+    """The facade's controller, run as ``scheduled``."""
+    limit: object = None
+    """The :class:`~.frontier.Limit` at scheduled's blocking, with the scheduler's limits."""
+    gaps: dict = None
+    """Per strategy, (view-weighted hours it gives up against the limit with the
+    scheduler's limits at its own blocking, the same against the limit without move
+    limits) [h]."""
+    families: tuple = ()
+    """:class:`FamilyMember` runs of the threshold family and the target rule's."""
+    frontier_free: tuple = ()
+    """Supported points (:class:`~.frontier.Point`) of the limit without move limits."""
+    frontier_limited: tuple = ()
+    """Supported points of the limit with the scheduler's limits."""
 
     def figures(self, name):
         """Return the :class:`StrategyFigures` of strategy ``name``."""
@@ -182,18 +214,60 @@ class AnnualReport:
                          'from the site of the facade; the sun is seen from the station')
         lines.append(f'{"":<14}{"blocked direct":>15}{"blocked":>9}{"view":>8}'
                      f'{"view-wtd":>10}{"moves":>8}{"moves/yr":>10}{"budget":>8}'
-                     f'{"air":>10}{"storm":>7}')
+                     f'{"air":>10}{"storm":>7}{"gap":>8}{"gap":>8}{"gap free":>10}')
         lines.append(f'{"":<14}{"[kWh/m2]":>15}{"[-]":>9}{"[h]":>8}{"[h]":>10}'
-                     f'{"/panel":>8}{"/panel":>10}{"used":>8}{"[NL]":>10}{"clos.":>7}')
+                     f'{"/panel":>8}{"/panel":>10}{"used":>8}{"[NL]":>10}{"clos.":>7}'
+                     f'{"[h]":>8}{"[%]":>8}{"[h]":>10}')
         for s in self.strategies:
             storm = '-' if math.isnan(s.storm_closure) else f'{s.storm_closure:.2f}'
+            limited, free = (self.gaps or {}).get(s.name, (math.nan, math.nan))
+            share = limited / (s.view_weighted_hours_h + limited) if limited == limited \
+                and s.view_weighted_hours_h + limited > 0 else math.nan
             lines.append(f'{s.name:<14}{s.blocked_direct_kwh_m2:>15.1f}'
                          f'{s.blocked_direct_fraction:>9.3f}{s.view_hours_h:>8.0f}'
                          f'{s.view_weighted_hours_h:>10.0f}{s.actuations_per_panel:>8.0f}'
                          f'{s.actuations_per_panel_year:>10.0f}'
                          f'{s.actuations_per_panel_year / self.cycle_budget_per_year:>8.1%}'
-                         f'{s.air_nl:>10.0f}{storm:>7}')
+                         f'{s.air_nl:>10.0f}{storm:>7}{_number(limited, 8, 0)}'
+                         f'{_number(100 * share, 8, 1)}{_number(free, 10, 0)}')
+        lines.extend(self.limit_lines())
+        lines.extend(self.family_lines())
         lines.extend(self.legend())
+        return lines
+
+    def limit_lines(self):
+        """Return the lines that say how exactly the limit is known and what it needed."""
+        if self.limit is None:
+            return []
+        limit = self.limit
+        return [f"limit: with the whole weather known and the scheduler's limits, at "
+                f'{limit.blocked_direct_kwh_m2:.1f} kWh/m2 blocked no schedule keeps more '
+                f'than {limit.view_weighted_upper_h:.1f} h of weighted view; one that keeps '
+                f'{limit.view_weighted_lower_h:.1f} h is shown (bracket {limit.width_h:.2f} h,'
+                f' {limit.evaluations} values of view tried); its schedule would exceed the '
+                f'air bucket in {limit.air_bound_exceeded_steps} steps (relaxed)']
+
+    def family_lines(self):
+        """Return a line per family: its best member at scheduled's blocking, dominance."""
+        if not self.families:
+            return []
+        scheduled = self.figures('scheduled')
+        lines = []
+        for family in ('threshold', 'target rule'):
+            members = [m for m in self.families if m.family == family]
+            if not members:
+                continue
+            dominating = [m.label for m in members if _dominates(m.figures, scheduled)]
+            enough = [m for m in members
+                      if m.figures.blocked_direct_kwh_m2 >= scheduled.blocked_direct_kwh_m2]
+            best = max(enough, key=lambda m: m.figures.view_weighted_hours_h, default=None)
+            lines.append(
+                f'{family} family ({len(members)} members): '
+                + (f'most view blocking at least as much as scheduled: {best.label}, '
+                   f'{best.figures.view_weighted_hours_h:.0f} h, '
+                   f'{best.figures.actuations_per_panel_year:.0f} moves/yr; ' if best
+                   else 'none blocks as much as scheduled; ')
+                + ('dominating scheduled: ' + (', '.join(dominating) or 'none')))
         return lines
 
     def legend(self):
@@ -209,14 +283,20 @@ class AnnualReport:
             'an assumed budget: no hinge fatigue life is published)',
             'air: free air of closing moves [normal litres]; storm clos.: mean closure while '
             'the storm latch was set (0 open/flat .. 1 closed/folded)',
-            f'strategies: scheduled (ours), threshold (Al Bahr-like: flat above {on:g} W/m2 '
-            f'direct on the panel, folded below {off:g}), always open (flat), always closed '
-            '(folded)']
+            "gap: view-wtd hours given up against the limit with the scheduler's limits at "
+            'the same blocking ([%] of the limit; negative only for the static baselines, '
+            'which ignore the storm latch the limit obeys); gap free: the same against the '
+            'limit without move limits',
+            f"strategies: scheduled (the facade's controller, {self.controller}), "
+            'predictive / target rule (the other controller), threshold (Al Bahr-like: flat '
+            f'above {on:g} W/m2 direct on the panel, folded below {off:g}), always open '
+            '(flat), always closed (folded), limit (the clairvoyant optimum within the '
+            "scheduler's limits at scheduled's blocking)"]
 
 
 def annual_report(facade, weather, first_date=None, last_date=None, step_min=60, table=None,
                   gust_factor=1.0, threshold_on_w_m2=250.0, threshold_off_w_m2=150.0,
-                  progress=None):
+                  progress=None, families=True):
     """Run ``facade`` through a weather file's dates under four strategies; see the module doc.
 
     Parameters
@@ -240,6 +320,10 @@ def annual_report(facade, weather, first_date=None, last_date=None, step_min=60,
         Thresholds of the threshold strategy [W/m2], ``on > off >= 0``.
     progress : callable, optional
         Called with a line of text as each stage starts.
+    families : bool
+        Also run the threshold family (:data:`THRESHOLD_ON_W_M2` x
+        :data:`THRESHOLD_OFF_RATIOS`) and the target rule's (:data:`SHADING_TARGETS`),
+        about 1.5 s each for the demonstrator's year.
 
     Raises
     ------
@@ -248,6 +332,7 @@ def annual_report(facade, weather, first_date=None, last_date=None, step_min=60,
         bad option; TypeError for a facade or weather of the wrong type.
     """
     say = progress or (lambda text: None)
+    families_wanted = bool(families)
     if not isinstance(weather, Weather):
         raise TypeError(f'weather must be a Weather, got {type(weather).__name__}')
     step_s = _step_s(step_min)
@@ -275,14 +360,29 @@ def annual_report(facade, weather, first_date=None, last_date=None, step_min=60,
                        months=_local_months(middles, weather.utc_offset_h))
     parameters = scheduler_parameters(facade)
     wind = sampled['wind_speed_m_s'] * gust_factor
+    problem = ClosureProblem(
+        closures=CANDIDATE_CLOSURES, direct_w_m2=direct, blocked=blocked, view=table.view,
+        daylight=position.above_horizon, step_s=step_s, start_s=epochs - step_s / 2.0,
+        weights=context.weights, air_nl=full_close_air_nl(facade))
+    controller = facade.control.get('controller', DEFAULT_CONTROLLER)
+    clear = clear_sky_dni(epochs, site)
+    inputs = PlanInputs(cos_incidence=np.where(sunlit, sun_panel[..., 2], 0.0),
+                        blocked=blocked, daylight=position.above_horizon,
+                        clear_dni_w_m2=clear, step_h=np.full(count, step_s / 3600.0))
+    target_desired = _desired(facade, blocked, table.view, sunlit, step_s)
+    controllers = {
+        'predictive': (lambda: _predictive_desired(facade, table, inputs, sampled['dni_w_m2'],
+                                                   step_s, parameters), None),
+        'target': (lambda: target_desired, sampled['dni_w_m2'])}
+    other = 'target' if controller == 'predictive' else 'predictive'
     strategies, runs = [], {}
-    for name, desired, dni in (
-            ('scheduled', _desired(facade, blocked, table.view, sunlit, step_s),
-             sampled['dni_w_m2']),
-            ('threshold', _threshold_desired(direct, threshold_on_w_m2, threshold_off_w_m2),
-             None)):
+    for name, make, dni in (
+            ('scheduled', *controllers[controller]),
+            (OTHER_ROW[other], *controllers[other]),
+            ('threshold', lambda: _threshold_desired(direct, threshold_on_w_m2,
+                                                     threshold_off_w_m2), None)):
         say(f'{name}: scheduler over {count} steps')
-        runs[name] = _run_scheduler(context, parameters, desired, dni, wind,
+        runs[name] = _run_scheduler(context, parameters, make(), dni, wind,
                                     lambda share: say(f'{name}: {share:.0%} of the steps'))
         strategies.append(_figures(context, name, runs[name]))
     full_close = float(np.sum(full_close_air_nl(facade)))
@@ -291,6 +391,20 @@ def annual_report(facade, weather, first_date=None, last_date=None, step_min=60,
         static = _Run(closure=np.full(direct.shape, closure), starts=np.zeros(direct.shape),
                       air_nl=air, latched=runs['scheduled'].latched, latched_s=0.0)
         strategies.append(_figures(context, name, static))
+    say("the limit: the best schedule with the whole weather known, at each strategy's "
+        'blocking')
+    limits = Limits.of(problem, parameters, runs['scheduled'].latched)
+    scheduled = strategies[0]
+    limit = limit_at(problem, scheduled.blocked_direct_kwh_m2, limits)
+    limit_run = _limit_run(problem, limits, limit.schedule, runs['scheduled'])
+    strategies.append(dataclasses.replace(
+        _figures(context, 'limit', limit_run),
+        view_weighted_hours_h=limit.view_weighted_upper_h))
+    gaps = {s.name: _gaps(problem, limits, s) for s in strategies}
+    families = ()
+    if families_wanted:
+        families = _families(context, problem, limits, parameters, wind, sampled, facade,
+                             blocked, table, sunlit, direct, say)
     diffuse = _diffuse_on_panels(facade, sampled)
     dt_h = step_s / 3600.0
     incident = _per_panel_mean(direct * dt_h / 1000.0, context.weights)
@@ -309,7 +423,10 @@ def annual_report(facade, weather, first_date=None, last_date=None, step_min=60,
         cycle_budget_per_year=parameters.daily_move_cap * DAYS_PER_YEAR,
         threshold_w_m2=(float(threshold_on_w_m2), float(threshold_off_w_m2)),
         months=np.bincount(context.months, minlength=12) > 0,
-        site_offset_deg=site_distance_deg(facade.site, site), strategies=tuple(strategies))
+        site_offset_deg=site_distance_deg(facade.site, site), strategies=tuple(strategies),
+        controller=controller, limit=limit, gaps=gaps, families=families,
+        frontier_free=tuple(frontier(problem)),
+        frontier_limited=tuple(frontier(problem, limits)))
 
 
 @dataclass(frozen=True)
@@ -430,9 +547,9 @@ def _by_month(values, months):
     return np.bincount(months, weights=values, minlength=12)
 
 
-def _desired(facade, blocked, view, sunlit, step_s):
-    """(T, N) closures of the coordinator's rule, judged over the look-ahead window."""
-    target = facade.control.get('shading_target', 0.9)
+def _desired(facade, blocked, view, sunlit, step_s, target=None):
+    """(T, N) closures of the target rule, judged over the look-ahead window."""
+    target = facade.control.get('shading_target', 0.9) if target is None else target
     window = int(round(facade.control.get('look_ahead_s', 0.0) / step_s))
     worst = np.where(sunlit[..., None], blocked, np.inf)
     any_lit = sunlit.copy()
@@ -470,19 +587,22 @@ def _run_scheduler(context, parameters, desired, dni, wind, report_share):
                           initial_closure=parameters.default_closure, start_s=starts_s[0],
                           wind_timeout_s=1.5 * step_s)
     steps = len(starts_s)
-    closure = np.empty(desired.shape)
-    starts = np.zeros(desired.shape)
+    shape = context.direct.shape
+    closure = np.empty(shape)
+    starts = np.zeros(shape)
     latched = np.zeros(steps, bool)
     previous = scheduler.commanded_closure.copy()
     moving = np.zeros(len(facade), bool)
     air_nl, latched_s = 0.0, 0.0
     quarter = max(1, steps // 4)
+    decide = desired if callable(desired) else (lambda i, closure: desired[i])
     for i in range(steps):
         if i and i % quarter == 0 and i < steps - quarter / 2:
             report_share(i / steps)
         now, end = starts_s[i], starts_s[i] + step_s
         irradiance = None if dni is None else dni[i]
-        result = scheduler.step(now, desired[i], wind_m_s=wind[i], dni_w_m2=irradiance)
+        wanted = decide(i, scheduler.commanded_closure)
+        result = scheduler.step(now, wanted, wind_m_s=wind[i], dni_w_m2=irradiance)
         while True:
             changed = result.closure != previous
             starts[i] += changed & ~moving
@@ -495,11 +615,105 @@ def _run_scheduler(context, parameters, desired, dni, wind, report_share):
             if due >= end:
                 break
             now = due
-            result = scheduler.step(now, desired[i], dni_w_m2=irradiance)
+            result = scheduler.step(now, wanted, dni_w_m2=irradiance)
         closure[i] = result.closure
         latched[i] = scheduler.storm_latched
     return _Run(closure=closure, starts=starts, air_nl=air_nl, latched=latched,
                 latched_s=latched_s)
+
+
+def _predictive_desired(facade, table, inputs, dni, step_s, parameters):
+    """Make the predictive controller's decisions, one per step, from what is known then.
+
+    The step's own DNI is the measurement (as the threshold rule and the target rule's DNI
+    gate take it); the steps ahead are forecast from it (:mod:`.predictive`).
+    """
+    settings = PredictiveParameters.of(facade.control)
+    controller = PredictiveController(table.closures, table.view, full_close_air_nl(facade),
+                                      settings, deadband=parameters.deadband)
+    horizon = settings.steps(step_s)
+
+    def desired(i, closure_now):
+        ahead = slice(i, i + horizon)
+        window = PlanInputs(cos_incidence=inputs.cos_incidence[ahead],
+                            blocked=inputs.blocked[ahead], daylight=inputs.daylight[ahead],
+                            clear_dni_w_m2=inputs.clear_dni_w_m2[ahead],
+                            step_h=inputs.step_h[ahead])
+        return controller.desired(closure_now, window, dni_now_w_m2=dni[i])
+    return desired
+
+
+@dataclass(frozen=True)
+class FamilyMember:
+    """One member of a baseline family and its figures."""
+
+    family: str
+    """'threshold' or 'target rule'."""
+    label: str
+    """Its setting, e.g. 'on 300 / off 150 W/m2' or 'target 0.9'."""
+    figures: StrategyFigures
+
+
+def _families(context, problem, limits, parameters, wind, sampled, facade, blocked, table,
+              sunlit, direct, say):
+    members = []
+    runs = [('threshold', f'on {on:g} / off {on * ratio:g} W/m2',
+             lambda on=on, ratio=ratio: _threshold_desired(direct, on, on * ratio), None)
+            for on in THRESHOLD_ON_W_M2 for ratio in THRESHOLD_OFF_RATIOS]
+    runs += [('target rule', f'target {target:g}',
+              lambda target=target: _desired(facade, blocked, table.view, sunlit,
+                                             context.step_s, target), sampled['dni_w_m2'])
+             for target in SHADING_TARGETS]
+    for index, (family, label, make, dni) in enumerate(runs):
+        say(f'families: {family} {label} ({index + 1} of {len(runs)})')
+        run = _run_scheduler(context, parameters, make(), dni, wind, lambda share: None)
+        members.append(FamilyMember(family=family, label=label,
+                                    figures=_figures(context, family, run)))
+    return tuple(members)
+
+
+def _limit_run(problem, limits, schedule, scheduled):
+    """Make the limit's schedule a run: moves and air counted from its levels."""
+    closure = problem.closures[schedule.levels]
+    start = np.full((1, closure.shape[1]), problem.closures[limits.start_level])
+    change = np.diff(np.vstack([start, closure]), axis=0)
+    return _Run(closure=closure, starts=(change != 0).astype(float),
+                air_nl=float(np.sum(np.maximum(change, 0.0) @ problem.air_nl)),
+                latched=scheduled.latched, latched_s=scheduled.latched_s)
+
+
+def _gaps(problem, limits, figures):
+    """Return the gaps [h] with and without the scheduler's limits at ``figures``'s blocking.
+
+    NaN where no schedule within them blocks as much.
+    """
+    gaps = []
+    for bound in (limits, None):
+        try:
+            limit = limit_at(problem, figures.blocked_direct_kwh_m2, bound)
+        except ValueError:
+            gaps.append(math.nan)
+            continue
+        gaps.append(limit.view_weighted_upper_h - figures.view_weighted_hours_h)
+    return tuple(gaps)
+
+
+def _dominates(a, b):
+    """Return whether ``a`` is as good as ``b`` in blocking, view and moves, better in one."""
+    at_least = (a.blocked_direct_kwh_m2 >= b.blocked_direct_kwh_m2
+                and a.view_weighted_hours_h >= b.view_weighted_hours_h
+                and a.actuations_per_panel <= b.actuations_per_panel)
+    better = (a.blocked_direct_kwh_m2 > b.blocked_direct_kwh_m2
+              or a.view_weighted_hours_h > b.view_weighted_hours_h
+              or a.actuations_per_panel < b.actuations_per_panel)
+    return at_least and better
+
+
+def _number(value, width, decimals):
+    if value != value:
+        return f'{"-":>{width}}'
+    value = round(value, decimals) + 0.0  # no '-0'
+    return f'{value:>{width}.{decimals}f}'
 
 
 def _next_call(scheduler, result, now, period_s):
@@ -548,7 +762,11 @@ def _diffuse_on_panels(facade, sampled):
 
 
 def plot(report, path):
-    """Write a PNG: monthly blocked direct energy per strategy, and monthly moves per panel."""
+    """Write a PNG: the frontiers and the strategies; monthly blocked direct sun; moves.
+
+    The first panel draws blocked direct energy against view-weighted hours: the limits,
+    the families and every strategy as a point.
+    """
     import matplotlib
     matplotlib.use('Agg')
     from matplotlib import pyplot
@@ -556,35 +774,68 @@ def plot(report, path):
     months = np.flatnonzero(report.months)
     names = ['Jan', 'Feb', 'Mar', 'Apr', 'May', 'Jun', 'Jul', 'Aug', 'Sep', 'Oct', 'Nov',
              'Dec']
-    colours = {'scheduled': 'tab:green', 'threshold': 'tab:orange', 'always open': 'tab:gray',
-               'always closed': 'tab:purple'}
-    figure, axes = pyplot.subplots(2, 1, figsize=(10, 8), sharex=True)
-    width = 0.8 / len(report.strategies)
-    for index, strategy in enumerate(report.strategies):
-        x = np.arange(months.size) + (index - (len(report.strategies) - 1) / 2) * width
-        axes[0].bar(x, strategy.monthly_blocked_kwh_m2[months], width,
+    colours = {'scheduled': 'tab:green', 'target rule': 'tab:olive', 'predictive': 'tab:olive',
+               'threshold': 'tab:orange', 'always open': 'tab:gray',
+               'always closed': 'tab:purple', 'limit': 'black'}
+    figure, axes = pyplot.subplots(3, 1, figsize=(10, 13),
+                                   gridspec_kw={'height_ratios': [1.4, 1, 1]})
+    _plot_frontiers(report, axes[0], colours)
+    bars = [s for s in report.strategies if s.name != 'limit']
+    width = 0.8 / len(bars)
+    for index, strategy in enumerate(bars):
+        x = np.arange(months.size) + (index - (len(bars) - 1) / 2) * width
+        axes[1].bar(x, strategy.monthly_blocked_kwh_m2[months], width,
                     color=colours.get(strategy.name), label=strategy.name)
-        axes[1].bar(x, strategy.monthly_actuations_per_panel[months], width,
+        axes[2].bar(x, strategy.monthly_actuations_per_panel[months], width,
                     color=colours.get(strategy.name), label=strategy.name)
-    axes[0].plot(np.arange(months.size), report.monthly_incident_kwh_m2[months], 'k_',
+    axes[1].plot(np.arange(months.size), report.monthly_incident_kwh_m2[months], 'k_',
                  markersize=20, label='incident direct')
-    axes[0].set_ylabel('blocked direct sun [kWh/m2]\n(per m2 of panel footprint)')
-    axes[0].set_title(f'{report.facade_name} on {report.source}\nlocal dates '
-                      f'{report.first_date} to {report.last_date}, step '
-                      f'{report.step_s / 60:.0f} min', fontsize=10)
-    axes[0].legend(loc='upper center', fontsize=8, ncol=5)
-    axes[0].set_ylim(0, 1.2 * max(1e-9, float(np.max(report.monthly_incident_kwh_m2))))
-    axes[1].set_ylabel('moves started per panel')
-    top = max(max(float(np.max(s.monthly_actuations_per_panel)) for s in report.strategies), 1)
-    axes[1].set_ylim(0, 1.3 * top)
-    axes[1].set_title(f'cycle budget (assumed): {report.daily_move_cap} moves a day, '
+    axes[1].set_ylabel('blocked direct sun [kWh/m2]\n(per m2 of panel footprint)')
+    axes[1].legend(loc='upper center', fontsize=8, ncol=6)
+    axes[1].set_ylim(0, 1.2 * max(1e-9, float(np.max(report.monthly_incident_kwh_m2))))
+    axes[2].set_ylabel('moves started per panel')
+    top = max(max(float(np.max(s.monthly_actuations_per_panel)) for s in bars), 1)
+    axes[2].set_ylim(0, 1.3 * top)
+    axes[2].set_title(f'cycle budget (assumed): {report.daily_move_cap} moves a day, '
                       f'{report.cycle_budget_per_year:.0f} a year, about '
                       f'{report.cycle_budget_per_year / 12:.0f} a month', fontsize=9)
-    axes[1].set_xlabel('month (local standard time of the weather file)')
-    axes[1].set_xticks(np.arange(months.size))
-    axes[1].set_xticklabels([names[m] for m in months])
-    axes[1].legend(loc='upper center', fontsize=8, ncol=4)
+    for axis in axes[1:]:
+        axis.set_xticks(np.arange(months.size))
+        axis.set_xticklabels([names[m] for m in months])
+    axes[2].set_xlabel('month (local standard time of the weather file)')
+    axes[2].legend(loc='upper center', fontsize=8, ncol=5)
     figure.tight_layout()
     figure.savefig(path, dpi=100)
     pyplot.close(figure)
     return path
+
+
+def _plot_frontiers(report, axis, colours):
+    """Blocked direct energy against view-weighted hours: limits, families, strategies."""
+    for points, style, label in (
+            (report.frontier_free, 'k:', 'limit without move limits'),
+            (report.frontier_limited, 'k-', "limit with the scheduler's limits")):
+        if points:
+            axis.plot([p.view_weighted_h for p in points],
+                      [p.blocked_direct_kwh_m2 for p in points], style, lw=1.2, label=label)
+    for family, colour in (('threshold', 'tab:orange'), ('target rule', 'tab:olive')):
+        members = sorted((m.figures for m in report.families if m.family == family),
+                         key=lambda f: f.view_weighted_hours_h)
+        if members:
+            axis.plot([f.view_weighted_hours_h for f in members],
+                      [f.blocked_direct_kwh_m2 for f in members], 'o--', color=colour,
+                      markersize=3, lw=0.8, alpha=0.7, label=f'{family} family')
+    for strategy in report.strategies:
+        marker = 'x' if strategy.name == 'limit' else 'o'
+        axis.plot(strategy.view_weighted_hours_h, strategy.blocked_direct_kwh_m2, marker,
+                  color=colours.get(strategy.name), markersize=8)
+        axis.annotate(f' {strategy.name}', (strategy.view_weighted_hours_h,
+                                            strategy.blocked_direct_kwh_m2), fontsize=8)
+    axis.set_xlabel('view-weighted daylight hours, mean per panel [h]')
+    axis.set_ylabel('blocked direct sun [kWh/m2]')
+    axis.set_title(f'{report.facade_name} on {report.source}\nlocal dates '
+                   f'{report.first_date} to {report.last_date}, step '
+                   f'{report.step_s / 60:.0f} min: every schedule lies below the limit',
+                   fontsize=10)
+    axis.grid(alpha=0.3)
+    axis.legend(loc='lower left', fontsize=8)

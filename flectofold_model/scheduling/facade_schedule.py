@@ -14,12 +14,18 @@ panels of one facade differ by millimetres, and the table's own interpolation er
 """
 
 from dataclasses import fields
+import math
 
 import numpy as np
 
 from flectofold_model.actuation import (actuated_like, actuation_model_of,
                                         ATMOSPHERIC_PRESSURE_PA, DEMONSTRATOR_PLANT)
+from flectofold_model.environment.clear_sky import ClearSkyDni
+from flectofold_model.environment.ephemeris import SunEphemeris
 from flectofold_model.kinematics.hexagon.panel import HexagonPanel
+from flectofold_model.scheduling.predictive import (DEFAULT_CONTROLLER, plan_inputs,
+                                                    PredictiveController,
+                                                    PredictiveParameters)
 from flectofold_model.scheduling.scheduler import Scheduler, SchedulerParameters
 from flectofold_model.shading.table import ShadingTable
 
@@ -61,28 +67,72 @@ class FacadeSchedule:
         if not isinstance(self.table, ShadingTable):
             raise TypeError(f'table must be a ShadingTable, got {type(self.table).__name__}')
         self.parameters = scheduler_parameters(facade)
-        self.scheduler = Scheduler(len(facade), full_close_air_nl(facade), self.parameters,
+        air_nl = full_close_air_nl(facade)
+        self.scheduler = Scheduler(len(facade), air_nl, self.parameters,
                                    initial_closure=self.parameters.default_closure,
                                    start_s=start_s, wind_timeout_s=wind_timeout_s)
+        self.controller = facade.control.get('controller', DEFAULT_CONTROLLER)
+        """'predictive' (the receding-horizon plan) or 'target' (the target rule)."""
+        self.predictive = None
+        if self.controller == 'predictive':
+            settings = PredictiveParameters.of(facade.control)
+            self.predictive = PredictiveController(self.table.closures, self.table.view,
+                                                   air_nl, settings,
+                                                   deadband=self.parameters.deadband)
+            self._ephemeris = SunEphemeris(facade.site, settings.plan_step_s)
+            self._clear_sky = ClearSkyDni(facade.site, settings.plan_step_s)
 
     def desired_closure(self, sun_enu):
         """Desired closure (N,) for a sun vector (3,) or a look-ahead window (W, 3) in ENU."""
-        sun = np.asarray(sun_enu, dtype=float)
-        if sun.shape[-1] != 3 or sun.ndim not in (1, 2) or not np.all(np.isfinite(sun)):
-            raise ValueError(f'sun_enu must be finite, of shape (3,) or (W, 3), got {sun.shape}')
-        norm = np.linalg.norm(sun, axis=-1)
-        if np.any(np.abs(norm - 1.0) > 1e-6):
-            raise ValueError('sun_enu must be unit vectors toward the sun')
+        sun = _checked_sun(sun_enu)
         in_panels = self.facade.sun_in_panel_frames(sun)
         return self.table.choose(in_panels, self.shading_target)
+
+    def plan_inputs(self, now_s, sun_enu):
+        """Return the predictive controller's view of the horizon from ``now_s``.
+
+        ``now_s`` [s, UTC Unix time]; the sun now (3,) ENU, then the ephemeris on the plan
+        grid (multiples of ``plan_step_s``) up to ``horizon_s``.
+        """
+        settings = self.predictive.parameters
+        step_s = settings.plan_step_s
+        first = math.floor(now_s / step_s) + 1
+        times = [(first + j) * step_s for j in range(settings.steps(step_s) - 1)]
+        sun = np.asarray(sun_enu, dtype=float).reshape(1, 3)
+        if times:
+            sun = np.vstack([sun, self._ephemeris.enu(times)])
+        steps = np.array([times[0] - now_s if times else step_s] + [step_s] * len(times))
+        clear = self._clear_sky.at(np.array([now_s] + times, dtype=float))
+        return plan_inputs(self.facade, self.table, sun, clear, steps)
 
     def step(self, now_s, sun_enu, dni_w_m2=None, wind_m_s=None, faulted=None):
         """Commanded closures for this period, with the reasons (see :class:`ScheduleResult`).
 
         ``sun_enu`` None (no sun known): each panel's desired closure is its commanded one,
-        so automatic panels hold while a storm still moves the rest.
+        so automatic panels hold while a storm still moves the rest. The predictive
+        controller takes the first vector of a window (the sun now) and the ephemeris
+        ahead; it replaces the DNI gate (the scheduler's gate is not fed).
         """
-        desired = (self.scheduler.commanded_closure if sun_enu is None
-                   else self.desired_closure(sun_enu))
-        return self.scheduler.step(now_s, desired, wind_m_s=wind_m_s,
-                                   dni_w_m2=dni_w_m2, faulted=faulted)
+        if self.predictive is None:
+            desired = (self.scheduler.commanded_closure if sun_enu is None
+                       else self.desired_closure(sun_enu))
+            return self.scheduler.step(now_s, desired, wind_m_s=wind_m_s,
+                                       dni_w_m2=dni_w_m2, faulted=faulted)
+        if sun_enu is None:
+            desired = self.scheduler.commanded_closure
+        else:
+            now = _checked_sun(sun_enu).reshape(-1, 3)[0]
+            desired = self.predictive.desired(self.scheduler.commanded_closure,
+                                              self.plan_inputs(float(now_s), now),
+                                              dni_now_w_m2=dni_w_m2)
+        return self.scheduler.step(now_s, desired, wind_m_s=wind_m_s, faulted=faulted)
+
+
+def _checked_sun(sun_enu):
+    sun = np.asarray(sun_enu, dtype=float)
+    if sun.shape[-1:] != (3,) or sun.ndim not in (1, 2) or not np.all(np.isfinite(sun)):
+        raise ValueError(f'sun_enu must be finite, of shape (3,) or (W, 3), got {sun.shape}')
+    norm = np.linalg.norm(sun, axis=-1)
+    if np.any(np.abs(norm - 1.0) > 1e-6):
+        raise ValueError('sun_enu must be unit vectors toward the sun')
+    return sun

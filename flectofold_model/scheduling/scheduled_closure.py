@@ -15,8 +15,8 @@ import math
 import numpy as np
 
 from flectofold_model._validate import real_scalar
+from flectofold_model.environment.clear_sky import clear_sky_dni
 from flectofold_model.environment.sun import solar_position
-from flectofold_model.scheduling.day_report import clear_sky_dni
 from flectofold_model.scheduling.facade_schedule import FacadeSchedule
 
 

@@ -2,7 +2,11 @@
 
 ``ros2 run flectofold_ros day_report`` (or ``day_report`` in the venv). Without arguments: the
 embedded 6 x 6 demonstrator on the June solstice; ``--facade hexagon_6x6`` runs its hexagonal
-counterpart (each panel kind is cast against its own meshes).
+counterpart (each panel kind is cast against its own meshes). The table holds the facade's
+controller (``scheduled``), the other controller, the two static baselines and the limit (the
+most view any schedule within the scheduler's limits keeps at scheduled's blocking, the whole
+day known), each with the view it gives up against the limit; the PNG adds the frontier of
+that limit with every row as a point.
 """
 
 import argparse
@@ -24,7 +28,8 @@ def main(args=None):
     parser.add_argument('--date', default='2026-06-21', help='local date, YYYY-MM-DD')
     parser.add_argument('--step', type=float, default=600.0, help='time step [s]')
     parser.add_argument('--out', type=Path, default=Path('out'),
-                        help='folder for the PNG (default: ./out)')
+                        help='folder for the PNG of the day and its frontier '
+                             '(default: ./out)')
     parser.add_argument('--prefold-report', action='store_true',
                         help='also list every panel with its pre-fold')
     options = parser.parse_args((sys.argv if args is None else args)[1:])

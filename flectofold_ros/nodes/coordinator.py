@@ -21,6 +21,7 @@ from flectofold_model.environment import SunEphemeris
 from flectofold_model.facade import DEFAULT_FACADE, load_facade
 from flectofold_model.scheduling import FacadeSchedule
 from flectofold_model.scheduling.facade_schedule import representative_panel
+from flectofold_model.scheduling.predictive import DEFAULT_CONTROLLER
 from flectofold_model.scheduling.scheduler import OverrideRefused
 from flectofold_model.shading import ShadingTable
 from flectofold_ros import contract, diagnostics, facade_setpoints, panel_states
@@ -92,8 +93,11 @@ class CoordinatorNode(Node):
         self._storm_timer.cancel()
         self.create_timer(self._value('diagnostics_period_s'), self._report,
                           clock=Clock(clock_type=ClockType.STEADY_TIME))
+        self.controller = self.facade.control.get('controller', DEFAULT_CONTROLLER)
         self.get_logger().info(f'{self.facade.name}: {len(self.facade)} panels, a decision '
-                               f'every {self.period_s:g} s, look-ahead {self.look_ahead_s:g} s')
+                               f'every {self.period_s:g} s, controller {self.controller}'
+                               + (f', look-ahead {self.look_ahead_s:g} s'
+                                  if self.controller == 'target' else ''))
 
     def _value(self, name):
         return self.get_parameter(name).value
@@ -260,7 +264,7 @@ class CoordinatorNode(Node):
         return reading[0]
 
     def _sun_window(self, now_s, sun):
-        if self.look_ahead_s <= 0.0:
+        if self.look_ahead_s <= 0.0 or self.controller != 'target':
             return sun
         # the predictions lie on the decision period's grid, where the ephemeris has them
         first = math.floor(now_s / self.period_s) + 1
@@ -328,7 +332,8 @@ class CoordinatorNode(Node):
             level, message = diagnostics.WARN, 'waiting for the sun'
         elif self._fresh(self._sun, self._value('sun_timeout_s')) is None:
             level, message = diagnostics.WARN, 'sun vector stale: holding the schedule'
-        values = {'decisions': self.decisions, 'air_budget_used_nl': f'{self.air_used_nl:.1f}',
+        values = {'controller': self.controller, 'decisions': self.decisions,
+                  'air_budget_used_nl': f'{self.air_used_nl:.1f}',
                   'faulted_panels': sum(self._faulted.values()),
                   'rejected_inputs': sum(self.rejected.values()),
                   'overrides_refused_in_storm': self.overrides_refused_in_storm}

@@ -4,7 +4,8 @@ The test writes a small EPW with a gale for two hours of the afternoon, runs the
 bringup on it (``--weather``) and reads the bag with rosbags: the wind on the wind topic is
 the file's hour by hour (EPW convention worked out here by hand, not by the project's
 reader), the storm latch trips in the gale and the panels vent to the storm position, and
-after the calm hold they are scheduled again.
+after the calm hold they are scheduled again. The facade names no controller: the coordinator
+runs the default, the predictive one, and says so in its log and on /diagnostics.
 """
 
 import datetime
@@ -113,8 +114,10 @@ def test_a_day_on_a_weather_file_has_its_storm(weather_day, tmp_path):
         graph.close()
     assert bringup.returncode == 0, output
     assert 'storm latch tripped' in output and 'storm latch released' in output, output
+    assert 'controller predictive' in output, output
     run = (tmp_path / 'out' / 'latest').resolve()
-    wind, states = read_bag(run / 'bag')
+    wind, states, controllers = read_bag(run / 'bag')
+    assert controllers and set(controllers) == {'predictive'}, controllers
 
     start_s, end_s = (t.timestamp() for t in GALE_UTC)
     gale = [t for t, value in wind if value == GALE_M_S]
@@ -135,15 +138,25 @@ def test_a_day_on_a_weather_file_has_its_storm(weather_day, tmp_path):
 
 
 def read_bag(path):
+    """Return the wind [(t, m/s)], panel states [(t, table)] and coordinator's controllers.
+
+    The controllers: the ``controller`` value of each coordinator status on /diagnostics.
+    """
     with AnyReader([path]) as reader:
-        wanted = {contract.WIND_SPEED.name, contract.PANEL_STATES.name}
+        wanted = {contract.WIND_SPEED.name, contract.PANEL_STATES.name,
+                  contract.DIAGNOSTICS.name}
         connections = [c for c in reader.connections if c.topic in wanted]
-        wind, states = [], []
+        wind, states, controllers = [], [], []
         for connection, timestamp, raw in reader.messages(connections=connections):
             message = reader.deserialize(raw, connection.msgtype)
             if connection.topic == contract.WIND_SPEED.name:
                 wind.append((timestamp / 1e9, message.data))
+            elif connection.topic == contract.DIAGNOSTICS.name:
+                controllers += [
+                    {kv.key: kv.value for kv in status.values}.get('controller')
+                    for status in message.status
+                    if status.name.endswith(f'/{contract.COORDINATOR_NODE}: schedule')]
             else:
                 stamp = message.header.stamp.sec + message.header.stamp.nanosec / 1e9
                 states.append((stamp, panel_states.unpack(message).copy()))
-    return wind, states
+    return wind, states, controllers

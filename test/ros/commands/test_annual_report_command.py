@@ -52,8 +52,9 @@ def test_report_prints_the_table_and_writes_png_and_csv(epw, tmp_path, capsys, m
     assert 'local dates 03-20 to 03-21 (2 days, step 60 min)' in out
     assert 'wind x 1 above 10 m/s for 1 h' in out
     rows = {line.split()[0]: line for line in lines
-            if line.split()[:1] in (['scheduled'], ['threshold'])}
-    assert set(rows) == {'scheduled', 'threshold'}
+            if line.split()[:1] in (['scheduled'], ['threshold'], ['limit'])}
+    assert set(rows) == {'scheduled', 'threshold', 'limit'}
+    assert any(line.startswith('target rule ') for line in lines)
     assert any(line.startswith('always open ') for line in lines)
     assert any(line.startswith('always closed ') for line in lines)
     for unit in ('[kWh/m2]', '[NL]', 'normal litres', 'budget used'):

@@ -141,7 +141,10 @@ def test_the_coordinator_commands_what_the_model_schedules(day, small_facade, re
     got = np.array([commanded[p] for p in small_facade[1].panel_ids])
     np.testing.assert_allclose(got, expected, atol=1e-9)
     moves = [len(set(np.round(values, 6))) for values in simulated.setpoints.values()]
-    assert max(moves) >= 3  # the sun path really drives the schedule
+    # The sun path really drives the schedule: a panel leaves the default closure. (The target
+    # rule stepped a panel through 0.1 closures, 5 setpoints here; the predictive controller,
+    # the default, prices each move and makes one full stroke, 1 -> 0, in these 35 minutes.)
+    assert max(moves) >= 2, moves
 
 
 def test_the_panels_follow_the_coordinator(day, small_facade):
