@@ -37,6 +37,7 @@ setup(
             'fold_table = flectofold_ros.executables:fold_table',
             'day_report = flectofold_ros.executables:day_report',
             'annual_report = flectofold_ros.executables:annual_report',
+            'building_report = flectofold_ros.executables:building_report',
             'panel_node = flectofold_ros.executables:panel_node',
             'panel_group = flectofold_ros.executables:panel_group',
             'sun_position_node = flectofold_ros.executables:sun_position_node',

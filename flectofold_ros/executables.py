@@ -20,6 +20,7 @@ EXECUTABLES = {
     'fold_table': ('flectofold_ros.commands.fold_table', 130),
     'day_report': ('flectofold_ros.commands.day_report', 130),
     'annual_report': ('flectofold_ros.commands.annual_report', 130),
+    'building_report': ('flectofold_ros.commands.building_report', 130),
     'panel_node': ('flectofold_ros.nodes.panel', 0),
     'panel_group': ('flectofold_ros.nodes.panel_group', 0),
     'sun_position_node': ('flectofold_ros.nodes.sun_position', 0),
@@ -94,6 +95,7 @@ def _entry_point(name):
 fold_table = _entry_point('fold_table')
 day_report = _entry_point('day_report')
 annual_report = _entry_point('annual_report')
+building_report = _entry_point('building_report')
 panel_node = _entry_point('panel_node')
 panel_group = _entry_point('panel_group')
 sun_position_node = _entry_point('sun_position_node')
