@@ -5,14 +5,16 @@ a shoebox office (6 x 6 x 3.5 m, a south window of 60 % of the wall) behind the 
 6 x 6 demonstrator, the file's whole year at EnergyPlus's 10-minute step, for every strategy
 (the facade's controller, the other controller, the threshold rule, always open, always
 closed) and the room without a facade: cooling, heating and lighting energy, peak cooling,
-solar gain, the facade's mean transmittance, moves and air. EPW files only (EnergyPlus reads
-them); ``msg_docs/building.md`` explains every figure.
+solar gain, the facade's mean transmittance, moves and air. An EPW file, or a TMY3 file
+rewritten as one for EnergyPlus (``flectofold_model.environment.epw``);
+``msg_docs/building.md`` explains every figure.
 """
 
 import argparse
 from pathlib import Path
 import re
 import sys
+import tempfile
 import time
 
 _DATE = re.compile(r'^(?:\d{4}-)?(\d{2})-(\d{2})$')
@@ -22,7 +24,8 @@ def main(args=None):
     from flectofold_ros.runner import run_command
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0],
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument('weather_file', type=Path, help='EPW weather file')
+    parser.add_argument('weather_file', type=Path,
+                        help='EPW weather file, or a TMY3 file (rewritten as an EPW)')
     parser.add_argument('--facade', default=None,
                         help='facade description YAML or embedded name (default: the 6x6 '
                              'demonstrator)')
@@ -58,10 +61,9 @@ def report(options):
     """Read the inputs, run every row, print the table, write the CSV and PNG."""
     from flectofold_model.building.building_report import building_report, ROWS
     from flectofold_model.environment import read_weather
+    from flectofold_model.environment.epw import tmy3_to_epw
     from flectofold_model.facade import DEFAULT_FACADE, load_facade
     started = time.process_time()
-    if options.weather_file.suffix.lower() != '.epw':
-        raise ValueError(f'{options.weather_file}: EnergyPlus reads EPW files only')
     first, last = _period(options.first_date, 'first'), _period(options.last_date, 'last')
     if last < first:
         raise ValueError(f'last date {options.last_date} is before the first '
@@ -72,10 +74,16 @@ def report(options):
             raise ValueError(f'{path}: folder {path.parent} does not exist')
     weather = read_weather(options.weather_file)
     facade = load_facade(DEFAULT_FACADE if options.facade is None else options.facade)
-    result = building_report(
-        facade, weather, str(options.weather_file.resolve()), run_period=(first, last),
-        rows=rows, workdir=None if options.keep is None else str(options.keep),
-        progress=lambda text: print(f'building_report: {text}', flush=True))
+    with tempfile.TemporaryDirectory() as scratch:
+        epw = options.weather_file.resolve()
+        if epw.suffix.lower() != '.epw':
+            epw = tmy3_to_epw(epw, Path(scratch) / (epw.stem + '.epw'))
+            print(f'building_report: {options.weather_file.name} rewritten as an EPW for '
+                  'EnergyPlus', flush=True)
+        result = building_report(
+            facade, weather, str(epw), run_period=(first, last), rows=rows,
+            workdir=None if options.keep is None else str(options.keep),
+            progress=lambda text: print(f'building_report: {text}', flush=True))
     print('\n'.join(result.lines()))
     if options.csv is not None:
         fields = ('name', 'cooling_kwh_m2', 'heating_kwh_m2', 'lighting_kwh_m2',
@@ -110,8 +118,8 @@ def plot(result, path):
     axes[0].set_ylabel('energy per m2 of floor [kWh/m2]')
     axes[0].legend(fontsize=8)
     (m0, d0), (m1, d1) = result.run_period
-    axes[0].set_title(f'{result.facade_name} before a shoebox office on {result.source}\n'
-                      f'{m0:02d}-{d0:02d} to {m1:02d}-{d1:02d}', fontsize=10)
+    axes[0].set_title(f'{result.facade_name} before a shoebox office, {m0:02d}-{d0:02d} to '
+                      f'{m1:02d}-{d1:02d}\n{result.source}', fontsize=9)
     axes[1].bar(x, [r.transmitted_solar_kwh for r in result.rows], 0.6, color='tab:orange')
     axes[1].set_ylabel('solar transmitted by the window [kWh]')
     axes[1].set_xticks(x)
