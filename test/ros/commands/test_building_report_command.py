@@ -21,8 +21,8 @@ class CoarseTable(ShadingTable):
         super().__init__(panel, step_deg=15.0, samples=6)
 
 
-def test_two_days_on_pvlibs_tmy3_print_the_rows_and_write_csv_and_png(tmp_path, capsys,
-                                                                       monkeypatch):
+def test_two_days_on_pvlibs_tmy3_print_the_rows_and_write_csv_and_png(
+        tmp_path, capsys, monkeypatch):
     monkeypatch.setattr(model, 'ShadingTable', CoarseTable)
     png, table = tmp_path / 'room.png', tmp_path / 'room.csv'
     assert building_report.main(
