@@ -26,8 +26,9 @@ import time
 
 import numpy as np
 
-from flectofold_model.building.energyplus_model import (GROUND_ALBEDO, GROUND_SCHEDULE, Room,
-                                                        run, shoebox_epjson)
+from flectofold_model.building.energyplus_model import (GROUND_ALBEDO, GROUND_SCHEDULE,
+                                                        IDEAL_LOADS, Room, run,
+                                                        shoebox_epjson)
 from flectofold_model.building.facade_loop import FacadeInTheLoop, STRATEGIES
 from flectofold_model.environment.sun import Site
 from flectofold_model.environment.weather import REFERENCE_YEAR, Weather, weather_at
@@ -131,7 +132,7 @@ def building_report(facade, weather, epw_path, room=Room(), run_period=((1, 1), 
         raise TypeError(f'weather must be a Weather, got {type(weather).__name__}')
     if not isinstance(room, Room):
         raise TypeError(f'room must be a Room, got {type(room).__name__}')
-    unknown = [r for r in rows if r not in ROWS and r != 'predictive']
+    unknown = [r for r in rows if r not in ROWS and r not in ('predictive', 'room-aware')]
     if unknown:
         raise ValueError(f'unknown rows {unknown}; known: {", ".join(ROWS)}, predictive')
     station = Site(weather.latitude_deg, weather.longitude_deg, weather.altitude_m)
@@ -192,6 +193,7 @@ class LoopCallback:
         self.schedule_name = schedule_name
         self.handle = None
         self.ground_handle = None
+        self.load_handles = None
         self.written = []
         """Transmittance written at each run-period step, in order."""
         self.sun_up = []
@@ -218,6 +220,9 @@ class LoopCallback:
             if self.handle < 0 or self.ground_handle < 0:
                 raise RuntimeError(f'no Schedule:Compact actuators named '
                                    f'{self.schedule_name!r} and {GROUND_SCHEDULE!r}')
+            self.load_handles = [exchange.get_variable_handle(
+                state, f'Zone Ideal Loads Zone Sensible {kind} Rate', IDEAL_LOADS)
+                for kind in ('Cooling', 'Heating')]
         step_h = exchange.zone_time_step(state)
         step_s = step_h * 3600.0
         if abs(step_s - self._step_s) > 1e-6:
@@ -234,7 +239,9 @@ class LoopCallback:
         local_h = in_day * step_h
         start_s = _epoch_s(exchange.month(state), exchange.day_of_month(state), local_h,
                            self.weather.utc_offset_h)
-        result = self._step(self.loop, start_s, step_s)
+        room = tuple(exchange.get_variable_value(state, h) if h >= 0 else 0.0
+                     for h in self.load_handles)
+        result = self._step(self.loop, start_s, step_s, room)
         self.index.append((exchange.day_of_year(state) - 1) * int(round(86400.0 / step_s))
                           + in_day)
         exchange.set_actuator_value(state, self.handle, result.transmittance)
@@ -243,11 +250,12 @@ class LoopCallback:
         self.ground.append(GROUND_ALBEDO * result.diffuse)
         self.sun_up.append(result.sun_up)
 
-    def _step(self, loop, start_s, step_s):
+    def _step(self, loop, start_s, step_s, room=(0.0, 0.0)):
         middle = np.array([np.datetime64(int(round((start_s + step_s / 2) * 1e9)), 'ns')])
         sampled = weather_at(self.weather, middle)
         return loop.step(start_s, step_s, float(sampled['dni_w_m2'][0]),
-                         float(sampled['dhi_w_m2'][0]), float(sampled['wind_speed_m_s'][0]))
+                         float(sampled['dhi_w_m2'][0]), float(sampled['wind_speed_m_s'][0]),
+                         room)
 
     def mean_daylight(self):
         """Mean transmittance written over the steps with the sun up."""

@@ -73,6 +73,7 @@ OUTPUT_VARIABLES = (
     ('Zone Ideal Loads Zone Sensible Cooling Energy', IDEAL_LOADS, 'Hourly'),
     ('Zone Ideal Loads Zone Sensible Heating Energy', IDEAL_LOADS, 'Hourly'),
     ('Zone Ideal Loads Zone Sensible Cooling Rate', IDEAL_LOADS, 'Timestep'),
+    ('Zone Ideal Loads Zone Sensible Heating Rate', IDEAL_LOADS, 'Timestep'),
     ('Zone Lights Electricity Energy', ZONE, 'Hourly'),
     ('Daylighting Reference Point 1 Illuminance', ZONE + ' Daylighting', 'Hourly'),
     ('Site Direct Solar Radiation Rate per Area', 'Environment', 'Hourly'),

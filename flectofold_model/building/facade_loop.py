@@ -11,8 +11,11 @@ reached (:mod:`.facade_optics`).
 
 Strategies (:data:`STRATEGIES`): ``scheduled`` (the facade's own controller, the coordinator's
 :class:`~flectofold_model.scheduling.FacadeSchedule`), ``predictive`` and ``target rule``
-(either controller by name), ``threshold`` (the annual report's Al Bahr-like rule: flat above
-``on`` W/m2 of direct sun on the panel, folded below ``off``, run through the same scheduler),
+(either controller by name), ``room-aware`` (the predictive controller with the
+:class:`~flectofold_model.scheduling.objective.RoomAware` objective: solar gain priced by the
+room's cooling or heating at the last step), ``threshold`` (the annual report's Al Bahr-like
+rule: flat above ``on`` W/m2 of direct sun on the panel, folded below ``off``, run through the
+same scheduler),
 ``always open`` (flat) and ``always closed`` (folded), which never move.
 
 The sun is computed by the project's NREL SPA at the middle of the step, at the weather
@@ -30,13 +33,15 @@ from flectofold_model.building.facade_optics import (beam_transmittance, diffuse
 from flectofold_model.environment.ephemeris import SunEphemeris
 from flectofold_model.environment.sun import Site
 from flectofold_model.scheduling.facade_schedule import FacadeSchedule, representative_panel
+from flectofold_model.scheduling.objective import RoomAware
 from flectofold_model.scheduling.scheduler import Reason
 from flectofold_model.shading.ray_casting import SUNLIT_MIN_SZ
 from flectofold_model.shading.table import ShadingTable
 
 STRATEGIES = ('scheduled', 'predictive', 'target rule', 'threshold', 'always open',
-              'always closed')
-_CONTROLLER = {'predictive': 'predictive', 'target rule': 'target'}
+              'always closed', 'room-aware')
+_CONTROLLER = {'predictive': 'predictive', 'target rule': 'target',
+               'room-aware': 'predictive'}
 _MOVING = (Reason.RATE_LIMITED, Reason.WAITING_FOR_AIR)
 
 
@@ -104,6 +109,11 @@ class FacadeInTheLoop:
         if strategy not in ('always open', 'always closed'):
             self.schedule = FacadeSchedule(self.facade, start_s=start_s, table=self.table,
                                            wind_timeout_s=3600.0)
+        self.objective = None
+        if strategy == 'room-aware':
+            settings = self.schedule.predictive.parameters
+            self.objective = RoomAware(settings.view_value_w_m2, self.diffuse)
+            self.schedule.predictive.objective = self.objective
         static = {'always open': 0.0, 'always closed': 1.0}.get(strategy)
         self.closure = np.full(len(self.facade), static if static is not None else
                                self.facade.control.get('default_closure', 0.0))
@@ -111,12 +121,15 @@ class FacadeInTheLoop:
         self.air_nl = 0.0
         self._ephemeris = None
 
-    def step(self, start_s, step_s, dni_w_m2, dhi_w_m2, wind_m_s):
+    def step(self, start_s, step_s, dni_w_m2, dhi_w_m2, wind_m_s, room_w=(0.0, 0.0)):
         """Decide over the step ``[start_s, start_s + step_s)`` [s]; return a StepResult.
 
         ``dni_w_m2``, ``dhi_w_m2`` the step's direct normal and diffuse horizontal
-        irradiance [W/m2], ``wind_m_s`` its mean wind [m/s].
+        irradiance [W/m2], ``wind_m_s`` its mean wind [m/s]; ``room_w`` the room's sensible
+        cooling and heating rates at the last step [W] (the ``room-aware`` strategy's).
         """
+        if self.objective is not None:
+            self.objective.observe(room_w[0], room_w[1], 0.5 * dhi_w_m2)
         middle = start_s + step_s / 2.0
         if self._ephemeris is None or self._ephemeris.step_s != step_s:
             self._ephemeris = SunEphemeris(self.facade.site, step_s, batch=1440)

@@ -75,3 +75,58 @@ class SunAndView:
 
     def __repr__(self):
         return f'SunAndView(view_value_w_m2={self.view_value_w_m2:g})'
+
+
+class RoomAware:
+    """Solar gain priced by what the room behind needs now, plus the view [Wh/m2].
+
+    ``r = dt (m (E b(c) - E_d tau_d(c)) + lambda v(c) [daytime])``: the direct sun the panel
+    blocks, less the sky's diffuse light it lets through (``E_d`` the diffuse irradiance on
+    the panel's plane, ``tau_d`` the diffuse transmittance of each candidate), weighted by the
+    room's need ``m``: 1 while the room is being cooled (keep the sun out), ``-heating_value``
+    while it is heated (let the sun in), ``neutral_value`` otherwise (the sun let in now is
+    cooling later). The room's state is the building simulation's at the last step, held
+    over the plan (:meth:`observe`: persistence, the only thing known of the room ahead).
+
+    Parameters
+    ----------
+    view_value_w_m2 : float
+        Value of an hour of full view [W/m2], ``>= 0``.
+    diffuse_transmittance : array-like
+        (K,) diffuse transmittance of each candidate closure [-].
+    heating_value, neutral_value : float
+        The weights of solar gain while heating and with neither load, in [0, 1].
+    """
+
+    unit = 'Wh/m2'
+
+    def __init__(self, view_value_w_m2, diffuse_transmittance, heating_value=0.5,
+                 neutral_value=0.5):
+        self.view = SunAndView(view_value_w_m2)
+        self.diffuse_transmittance = np.asarray(diffuse_transmittance, dtype=float)
+        for name, value in (('heating_value', heating_value),
+                            ('neutral_value', neutral_value)):
+            if not 0.0 <= real_scalar(name, value) <= 1.0:
+                raise ValueError(f'{name} must lie in [0, 1], got {value:g}')
+        self.heating_value, self.neutral_value = float(heating_value), float(neutral_value)
+        self.need = neutral_value
+        self.diffuse_w_m2 = 0.0
+
+    def observe(self, cooling_w, heating_w, diffuse_w_m2):
+        """Take the room's state of the last step.
+
+        ``cooling_w``, ``heating_w`` its sensible cooling and heating rates [W];
+        ``diffuse_w_m2`` the sky's diffuse irradiance on the facade [W/m2].
+        """
+        self.need = (1.0 if cooling_w > 0.0 else -self.heating_value if heating_w > 0.0
+                     else self.neutral_value)
+        self.diffuse_w_m2 = max(float(diffuse_w_m2), 0.0)
+
+    def rewards(self, stage):
+        """(T, N, K) rewards of holding each candidate over each step [Wh/m2]."""
+        step_h = np.asarray(stage.step_h, dtype=float)[:, None, None]
+        gain = stage.direct_w_m2[..., None] * stage.blocked \
+            - self.diffuse_w_m2 * self.diffuse_transmittance[None, None, :]
+        view = (self.view.view_value_w_m2 * np.asarray(stage.view)[None, None, :]
+                * np.asarray(stage.daylight)[:, None, None])
+        return step_h * (self.need * gain + view)

@@ -92,3 +92,18 @@ def test_a_storm_vents_the_scheduled_facade(facade, table):
 def test_an_unknown_strategy_is_refused(facade, table):
     with pytest.raises(ValueError, match='strategy must be one of'):
         FacadeInTheLoop(facade, 'sometimes', STATION, MORNING_S, table=table)
+
+
+def test_the_room_aware_objective_prices_solar_gain_by_the_rooms_need():
+    from flectofold_model.scheduling.objective import RoomAware, Stage
+    stage = Stage(direct_w_m2=np.array([[500.0]]), blocked=np.array([[[1.0, 0.0]]]),
+                  view=np.array([0.0, 0.8]), daylight=np.array([True]), step_h=np.ones(1))
+    objective = RoomAware(90.0, np.array([0.0, 0.5]))
+    objective.observe(1000.0, 0.0, 100.0)  # cooling: keep the sun out
+    cooling = objective.rewards(stage)[0, 0]
+    assert cooling[0] == 500.0 and cooling[1] == pytest.approx(-50.0 + 72.0)
+    objective.observe(0.0, 1000.0, 100.0)  # heating: the sun is welcome
+    heating = objective.rewards(stage)[0, 0]
+    assert heating[0] == -250.0 and heating[1] == pytest.approx(25.0 + 72.0)
+    with pytest.raises(ValueError, match='heating_value'):
+        RoomAware(90.0, np.zeros(2), heating_value=1.5)
