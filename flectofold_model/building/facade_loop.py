@@ -32,7 +32,8 @@ from flectofold_model.building.facade_optics import (beam_transmittance, diffuse
                                                      effective_transmittance)
 from flectofold_model.environment.ephemeris import SunEphemeris
 from flectofold_model.environment.sun import Site
-from flectofold_model.scheduling.facade_schedule import FacadeSchedule, representative_panel
+from flectofold_model.scheduling.facade_schedule import (FacadeSchedule, footprint_weights,
+                                                         representative_panel)
 from flectofold_model.scheduling.objective import RoomAware
 from flectofold_model.scheduling.scheduler import Reason
 from flectofold_model.shading.ray_casting import SUNLIT_MIN_SZ
@@ -96,9 +97,7 @@ class FacadeInTheLoop:
         self.table = table if table is not None else ShadingTable(
             representative_panel(self.facade))
         self.diffuse = diffuse_transmittance(self.table)
-        areas = np.array([p.area_m2 if hasattr(p, 'area_m2') else p.length_m * p.width_m
-                          for p in self.facade.panels])
-        self.weights = areas / areas.sum()
+        self.weights = footprint_weights(self.facade)
         azimuth = math.radians(window_azimuth_deg)
         self.window_normal = np.array([math.sin(azimuth), math.cos(azimuth), 0.0])
         self.on_w_m2, self.off_w_m2 = (float(v) for v in threshold_w_m2)

@@ -68,7 +68,7 @@ from flectofold_model.environment.sun import Site, solar_position
 from flectofold_model.environment.weather import (into_reference_year, REFERENCE_YEAR,
                                                   site_distance_deg, Weather, weather_at)
 from flectofold_model.scheduling.day_report import _interpolate, CANDIDATE_CLOSURES
-from flectofold_model.scheduling.facade_schedule import (full_close_air_nl,
+from flectofold_model.scheduling.facade_schedule import (footprint_weights, full_close_air_nl,
                                                          representative_panel,
                                                          scheduler_parameters)
 from flectofold_model.scheduling.frontier import ClosureProblem, frontier, limit_at, Limits
@@ -356,7 +356,7 @@ def annual_report(facade, weather, first_date=None, last_date=None, step_min=60,
         sun_panel.shape[:2] + (table.closures.size,)) * sunlit[..., None]
     context = _Context(facade=facade, step_s=step_s, epochs=epochs, middles=middles,
                        direct=direct, blocked=blocked, view=table.view,
-                       daylight=position.above_horizon, weights=_footprint_weights(facade),
+                       daylight=position.above_horizon, weights=footprint_weights(facade),
                        months=_local_months(middles, weather.utc_offset_h))
     parameters = scheduler_parameters(facade)
     wind = sampled['wind_speed_m_s'] * gust_factor
@@ -525,12 +525,6 @@ def _check_table(table):
             not np.allclose(table.closures, CANDIDATE_CLOSURES):
         raise AnnualReportError('table must be built over the candidate closures of the day '
                                 'report (0, 0.1, ..., 1)')
-
-
-def _footprint_weights(facade):
-    areas = np.array([p.area_m2 if hasattr(p, 'area_m2') else p.length_m * p.width_m
-                      for p in facade.panels])
-    return areas / areas.sum()
 
 
 def _per_panel_mean(values, weights):

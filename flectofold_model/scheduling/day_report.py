@@ -46,7 +46,8 @@ import numpy as np
 from flectofold_model.environment import sun
 from flectofold_model.environment.clear_sky import clear_sky_dni
 from flectofold_model.kinematics.kinds import fold_model_of
-from flectofold_model.scheduling.facade_schedule import full_close_air_nl, scheduler_parameters
+from flectofold_model.scheduling.facade_schedule import (footprint_weights, full_close_air_nl,
+                                                         scheduler_parameters)
 from flectofold_model.scheduling.frontier import ClosureProblem, frontier, limit_at, Limits
 from flectofold_model.scheduling.predictive import DEFAULT_CONTROLLER, PlanInputs
 from flectofold_model.scheduling.scheduler import Scheduler
@@ -186,8 +187,8 @@ def simulate_day(facade, date_iso, step_s=300.0, samples=24, progress=None):
     step.
     """
     # annual_report imports this module: its helpers are taken here, not at import time.
-    from flectofold_model.scheduling.annual_report import (_footprint_weights, _gaps,
-                                                           _predictive_desired, OTHER_ROW)
+    from flectofold_model.scheduling.annual_report import (_gaps, _predictive_desired,
+                                                           OTHER_ROW)
 
     say = progress or (lambda text: None)
     # The instants of the day: midnight + k step_s, each the start of its step (the
@@ -204,7 +205,7 @@ def simulate_day(facade, date_iso, step_s=300.0, samples=24, progress=None):
     view = _view_table(fold, samples)
     daylight = position.above_horizon
     cos_incidence = np.where(sunlit, sun_panel[..., 2], 0.0)
-    weights = _footprint_weights(facade)
+    weights = footprint_weights(facade)
     # (K,) view of the limit and the predictive controller: the panels' footprint-weighted
     # mean (the panels of a facade differ by about 0.01).
     mean_view = weights @ view

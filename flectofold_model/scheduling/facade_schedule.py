@@ -50,10 +50,21 @@ def full_close_air_nl(facade):
     return (closed - opened) / ATMOSPHERIC_PRESSURE_PA * 1e3
 
 
+def footprint_areas_m2(facade):
+    """Footprint area (N,) of each panel [m2]: a hexagon's own, a quad's length x width."""
+    return np.array([panel.area_m2 if isinstance(panel, HexagonPanel)
+                     else panel.length_m * panel.width_m for panel in facade.panels])
+
+
+def footprint_weights(facade):
+    """Each panel's share (N,) of the facade's footprint, summing to 1 [-]."""
+    areas = footprint_areas_m2(facade)
+    return areas / areas.sum()
+
+
 def representative_panel(facade):
     """Pick the facade's median panel by area, for which the shading table is built."""
-    areas = [panel.area_m2 if isinstance(panel, HexagonPanel) else panel.length_m * panel.width_m
-             for panel in facade.panels]
+    areas = footprint_areas_m2(facade)
     return facade.panels[int(np.argsort(areas)[len(areas) // 2])]
 
 
