@@ -151,7 +151,7 @@ ROSDEP_KEYS = {
     'yaml': 'python3-yaml', 'ruamel': 'python3-ruamel.yaml', 'matplotlib': 'python3-matplotlib',
     'rosbags': 'python3-rosbags-pip', 'pvlib': 'python3-pvlib-pip', 'mcap': 'python3-mcap-pip',
     'pygltflib': 'python3-pygltflib-pip',
-    'pyenergyplus': 'python3-pyenergyplus-lbnl-pip',
+    'pyenergyplus': 'python3-pyenergyplus-lbnl-pip', 'pyradiance': 'python3-pyradiance-pip',
     'pymodbus': 'python3-pymodbus',
     'rerun': 'python3-rerun-sdk-pip', 'rerun_cli': 'python3-rerun-sdk-pip',
     'launch_ros': 'launch_ros',
