@@ -12,12 +12,16 @@ During EnergyPlus's warm-up days (the first day repeated) the facade repeats wha
 the first day (a copy of the loop run through that day beforehand), as a static schedule
 would; the loop itself starts with the run period.
 
-Figures per strategy: cooling, heating and lighting energy per m2 of floor [kWh/m2], peak
-sensible cooling per m2 of floor [W/m2], solar radiation transmitted by the window [kWh], the
-mean transmittance the facade gave over daylight steps, moves per panel and air [NL].
+Figures per strategy: cooling, heating and lighting energy per m2 of floor [kWh/m2] (also by
+month), peak sensible cooling per m2 of floor [W/m2], solar radiation transmitted by the window
+[kWh], the mean transmittance the facade gave over daylight steps, moves per panel and air
+[NL]; with ``daylight``, the room's daylight and glare by Radiance (:mod:`.daylight`) at the
+closures the facade held each step: sDA, ASE, UDI, glare hours. The ``room-aware`` row then
+also prices daylight and glare at each candidate closure (:class:`.daylight.CandidateDaylight`).
 """
 
 import copy
+import dataclasses
 from dataclasses import dataclass
 import math
 import os
@@ -70,6 +74,12 @@ class StrategyRoom:
     """(S,) the ground reflectance seen through the facade written at each step."""
     steps: np.ndarray
     """(S,) step of the year of each written value (0: the first 10 min of 1 January)."""
+    closure: np.ndarray = None
+    """(S,) the facade's mean closure over each step (footprint-weighted; empty: none)."""
+    monthly_kwh_m2: dict = None
+    """``cooling``, ``heating``, ``lighting``: (12,) per calendar month [kWh/m2 of floor]."""
+    daylight: object = None
+    """The row's :class:`~.daylight.DaylightFigures` (None: daylight not computed)."""
 
 
 @dataclass(frozen=True)
@@ -114,18 +124,40 @@ class BuildingReport:
             'solar in: solar radiation the window transmits into the room; mean tau: the '
             "facade's transmittance over the steps with the sun up (beam and diffuse mixed "
             'by irradiance); moves, air: as in the annual report']
+        lit = [r for r in self.rows if r.daylight is not None]
+        if lit:
+            lines += [f'daylight and glare, Radiance, {lit[0].daylight.office_hours} office '
+                      'hours (08-18 local standard time)',
+                      f'{"":<14}{"sDA300":>8}{"ASE1000":>9}{"UDI":>7}{"<100":>7}{"> 2000":>8}'
+                      f'{"mean E":>8}{"glare":>7}{"GA":>7}{"sun seen":>10}',
+                      f'{"":<14}{"[%]":>8}{"[%]":>9}{"[%]":>7}{"[%]":>7}{"[%]":>8}'
+                      f'{"[lx]":>8}{"[h]":>7}{"[%]":>7}{"[h]":>10}']
+            for r in lit:
+                d = r.daylight
+                lines.append(f'{r.name:<14}{100 * d.sda:>8.1f}{100 * d.ase:>9.1f}'
+                             f'{100 * d.udi:>7.1f}{100 * d.udi_short:>7.1f}'
+                             f'{100 * d.udi_exceeded:>8.1f}{d.mean_lx:>8.0f}'
+                             f'{d.glare_hours:>7d}{100 * d.glare_autonomy:>7.1f}'
+                             f'{d.sun_in_view_hours:>10d}')
+            lines += ["sDA300/50% and ASE1000,250h after IES LM-83 (ASE with the row's own "
+                      'facade), UDI 100-2000 lx and its shares below and above; glare: hours '
+                      'with DGP >= 0.40 at a seated eye 2 m from the window facing it, GA its '
+                      "glare autonomy (hours below); sun seen: hours the sun's disc is in "
+                      'that view']
         return lines
 
 
 def building_report(facade, weather, epw_path, room=Room(), run_period=((1, 1), (12, 31)),
                     rows=ROWS, table=None, workdir=None, progress=None,
-                    sky_diffuse='DetailedSkyDiffuseModeling'):
+                    sky_diffuse='DetailedSkyDiffuseModeling', daylight=None):
     """Run the room behind ``facade`` under each row's strategy; see the module doc.
 
     ``weather`` is ``epw_path`` read by :func:`~flectofold_model.environment.read_weather`
     (the controller's weather); ``run_period`` ((month, day), (month, day)) inclusive, local
     standard time; ``workdir`` keeps the EnergyPlus outputs (one folder per row; a temporary
-    folder when not given).
+    folder when not given). ``daylight``: ``None`` for no daylight, or the keyword arguments
+    of :class:`~.daylight.DaylightModel` (``{}`` for its defaults) to add each row's daylight
+    and glare by Radiance, at the closures the row's facade held each step.
     """
     say = progress or (lambda text: None)
     if not isinstance(weather, Weather):
@@ -140,6 +172,7 @@ def building_report(facade, weather, epw_path, room=Room(), run_period=((1, 1), 
         say('shading table of the median panel (about 7 s)')
         table = ShadingTable(representative_panel(facade))
     floor_m2 = room.width_m * room.depth_m
+    light = None if daylight is None else _Daylight(facade, room, epw_path, daylight, say)
     results = []
     with tempfile.TemporaryDirectory() as scratch:
         base = workdir or scratch
@@ -153,14 +186,19 @@ def building_report(facade, weather, epw_path, room=Room(), run_period=((1, 1), 
                 callback = None
                 loop = None
             else:
+                candidates = None
+                if name == 'room-aware' and light is not None:
+                    candidates = light.candidates(table.closures)
                 loop = FacadeInTheLoop(facade, name, station, _start_s(weather, run_period),
-                                       table=table, window_azimuth_deg=room.azimuth_deg)
+                                       table=table, window_azimuth_deg=room.azimuth_deg,
+                                       daylight=candidates)
                 callback = LoopCallback(loop, weather, SCHEDULE, _start_s(weather, run_period))
                 figures = run(shoebox_epjson(room, SCHEDULE, run_period=run_period,
                                              sky_diffuse=sky_diffuse,
                                              shade_offset_m=SHADE_OFFSET_M,
                                              shade_margin_m=SHADE_MARGIN_M), epw_path,
                               outdir, callback=callback)
+            floor_monthly = {k: v / floor_m2 for k, v in figures.monthly_kwh.items()}
             results.append(StrategyRoom(
                 name=name, cooling_kwh_m2=figures.cooling_kwh / floor_m2,
                 heating_kwh_m2=figures.heating_kwh / floor_m2,
@@ -174,9 +212,54 @@ def building_report(facade, weather, epw_path, room=Room(), run_period=((1, 1), 
                 elapsed_s=time.perf_counter() - started,
                 transmittance=np.array(callback.written if callback else []),
                 ground_reflectance=np.array(callback.ground if callback else []),
-                steps=np.array(callback.index if callback else [], dtype=np.int64)))
+                steps=np.array(callback.index if callback else [], dtype=np.int64),
+                closure=np.array(callback.closure if callback else []),
+                monthly_kwh_m2=floor_monthly))
+    if light is not None:
+        results = [dataclasses.replace(row, daylight=light.figures(row, run_period))
+                   for row in results]
     return BuildingReport(facade_name=facade.name, source=weather.source, room=room,
                           run_period=tuple(run_period), rows=tuple(results))
+
+
+class _Daylight:
+    """The rows' daylight by Radiance: one matrix model with the facade, one without."""
+
+    def __init__(self, facade, room, epw_path, options, say):
+        from flectofold_model.building import daylight
+        self.daylight = daylight
+        say('daylight: sky and sun of every hour (gendaymtx)')
+        self.skies = daylight.read_skies(epw_path)
+        self.models = {'facade': daylight.DaylightModel(room, facade, progress=say, **options),
+                       'bare': daylight.DaylightModel(room, None, progress=say, **options)}
+        self.say = say
+
+    def candidates(self, closures):
+        """Return the room-aware objective's :class:`~.daylight.CandidateDaylight`."""
+        self.say('daylight: every closure state, for the room-aware objective')
+        return self.daylight.CandidateDaylight(self.models['facade'], self.skies, closures)
+
+    def figures(self, row, run_period):
+        """Return the row's :class:`~.daylight.DaylightFigures` at the closures it held."""
+        if row.name == 'no facade':
+            period = period_hours(run_period)
+            year = self.models['bare'].year(self.skies,
+                                            np.where(period[:, None], 1.0, np.nan))
+        else:
+            model = self.models['facade']
+            self.say(f'daylight: {row.name}')
+            year = model.year(self.skies, self.daylight.hourly_weights(
+                model.states, row.steps, row.closure))
+        return self.daylight.daylight_figures(year)
+
+
+def period_hours(run_period):
+    """(8760,) bool: the hours of the year within ``run_period`` (inclusive dates)."""
+    days = np.cumsum((0, 31, 28, 31, 30, 31, 30, 31, 31, 30, 31, 30))
+    (m0, d0), (m1, d1) = run_period
+    first, last = days[m0 - 1] + d0 - 1, days[m1 - 1] + d1 - 1
+    day = np.arange(8760) // 24
+    return (day >= first) & (day <= last)
 
 
 class LoopCallback:
@@ -197,6 +280,8 @@ class LoopCallback:
         self.written = []
         """Transmittance written at each run-period step, in order."""
         self.sun_up = []
+        self.closure = []
+        """The facade's footprint-weighted mean closure over each run-period step."""
         self.ground = []
         """Ground reflectance written at each run-period step, in order."""
         self.index = []
@@ -249,6 +334,7 @@ class LoopCallback:
         self.written.append(result.transmittance)
         self.ground.append(GROUND_ALBEDO * result.diffuse)
         self.sun_up.append(result.sun_up)
+        self.closure.append(float(result.closure @ self.loop.weights))
 
     def _step(self, loop, start_s, step_s, room=(0.0, 0.0)):
         middle = np.array([np.datetime64(int(round((start_s + step_s / 2) * 1e9)), 'ns')])

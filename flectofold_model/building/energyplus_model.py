@@ -52,6 +52,8 @@ import os
 import sqlite3
 import time
 
+import numpy as np
+
 ZONE = 'Office'
 WINDOW = 'Office Window'
 FACADE_WALL = 'Office Facade Wall'
@@ -158,6 +160,8 @@ class RunFigures:
     window_heat_gain_kwh: float
     peak_cooling_w: float
     elapsed_s: float
+    monthly_kwh: dict = dataclasses.field(default_factory=dict)
+    """``cooling``, ``heating``, ``lighting``: (12,) energy of each calendar month [kWh]."""
 
 
 def _rotated(points, azimuth_deg):
@@ -496,8 +500,25 @@ def read_figures(sql_path, elapsed_s=float('nan')):
                                          WINDOW)[0]}
         peak = _sum(cursor, 'Zone Ideal Loads Zone Sensible Cooling Rate', IDEAL_LOADS,
                     aggregate='MAX')[0]
+        monthly = {kind: _monthly(cursor, name, key) / joules_per_kwh for kind, name, key in (
+            ('cooling', 'Zone Ideal Loads Zone Sensible Cooling Energy', IDEAL_LOADS),
+            ('heating', 'Zone Ideal Loads Zone Sensible Heating Energy', IDEAL_LOADS),
+            ('lighting', 'Zone Lights Electricity Energy', ZONE))}
     return RunFigures(**{k: v / joules_per_kwh for k, v in figures.items()},
-                      peak_cooling_w=peak, elapsed_s=elapsed_s)
+                      peak_cooling_w=peak, elapsed_s=elapsed_s, monthly_kwh=monthly)
+
+
+def _monthly(cursor, name, key):
+    """(12,) sum of ``name`` (``key``) per calendar month, warm-up excluded [output units]."""
+    rows = cursor.execute(
+        'SELECT t.Month, SUM(d.Value) FROM ReportData d JOIN ReportDataDictionary k ON '
+        'd.ReportDataDictionaryIndex = k.ReportDataDictionaryIndex JOIN Time t ON '
+        'd.TimeIndex = t.TimeIndex WHERE k.Name = ? AND upper(k.KeyValue) = upper(?) AND '
+        '(t.WarmupFlag IS NULL OR t.WarmupFlag = 0) GROUP BY t.Month', (name, key)).fetchall()
+    monthly = np.zeros(12)
+    for month, value in rows:
+        monthly[int(month) - 1] = value
+    return monthly
 
 
 def run(document, epw, outdir, callback=None, name='shoebox.epJSON'):

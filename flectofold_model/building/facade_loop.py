@@ -13,7 +13,8 @@ Strategies (:data:`STRATEGIES`): ``scheduled`` (the facade's own controller, the
 :class:`~flectofold_model.scheduling.FacadeSchedule`), ``predictive`` and ``target rule``
 (either controller by name), ``room-aware`` (the predictive controller with the
 :class:`~flectofold_model.scheduling.objective.RoomAware` objective: solar gain priced by the
-room's cooling or heating at the last step), ``threshold`` (the annual report's Al Bahr-like
+room's cooling or heating at the last step, and the room's daylight and glare at each
+candidate closure when they are known), ``threshold`` (the annual report's Al Bahr-like
 rule: flat above ``on`` W/m2 of direct sun on the panel, folded below ``off``, run through the
 same scheduler),
 ``always open`` (flat) and ``always closed`` (folded), which never move.
@@ -44,6 +45,9 @@ STRATEGIES = ('scheduled', 'predictive', 'target rule', 'threshold', 'always ope
 _CONTROLLER = {'predictive': 'predictive', 'target rule': 'target',
                'room-aware': 'predictive'}
 _MOVING = (Reason.RATE_LIMITED, Reason.WAITING_FOR_AIR)
+#: The room-aware objective's prices of daylight and glare when the room's daylight is known
+#: [W/m2] (msg_docs/building.md: how they were chosen).
+ROOM_PRICES = {'daylight_value_w_m2': 60.0, 'glare_value_w_m2': 300.0}
 
 
 @dataclasses.dataclass
@@ -80,10 +84,20 @@ class FacadeInTheLoop:
         vertical. Used to weigh beam against diffuse light (:func:`effective_transmittance`).
     threshold_w_m2 : tuple
         (on, off) of the threshold strategy [W/m2].
+    daylight : callable, optional
+        ``daylight(start_s) -> (daylit, glare)``, each (K,) over the shading table's
+        candidate closures, for the ``room-aware`` strategy
+        (:class:`~.daylight.CandidateDaylight`); with it the objective prices daylight and
+        glare at ``room_prices``.
+    room_prices : dict, optional
+        ``daylight_value_w_m2`` and ``glare_value_w_m2`` of
+        :class:`~flectofold_model.scheduling.objective.RoomAware` (default
+        :data:`ROOM_PRICES`).
     """
 
     def __init__(self, facade, strategy, station, start_s, table=None,
-                 window_azimuth_deg=180.0, threshold_w_m2=(250.0, 150.0), gust_factor=1.0):
+                 window_azimuth_deg=180.0, threshold_w_m2=(250.0, 150.0), gust_factor=1.0,
+                 daylight=None, room_prices=None):
         if strategy not in STRATEGIES:
             raise ValueError(f'strategy must be one of {", ".join(STRATEGIES)}, got '
                              f'{strategy!r}')
@@ -109,9 +123,11 @@ class FacadeInTheLoop:
             self.schedule = FacadeSchedule(self.facade, start_s=start_s, table=self.table,
                                            wind_timeout_s=3600.0)
         self.objective = None
+        self.daylight = daylight
         if strategy == 'room-aware':
             settings = self.schedule.predictive.parameters
-            self.objective = RoomAware(settings.view_value_w_m2, self.diffuse)
+            prices = dict(ROOM_PRICES, **(room_prices or {})) if daylight is not None else {}
+            self.objective = RoomAware(settings.view_value_w_m2, self.diffuse, **prices)
             self.schedule.predictive.objective = self.objective
         static = {'always open': 0.0, 'always closed': 1.0}.get(strategy)
         self.closure = np.full(len(self.facade), static if static is not None else
@@ -128,7 +144,8 @@ class FacadeInTheLoop:
         cooling and heating rates at the last step [W] (the ``room-aware`` strategy's).
         """
         if self.objective is not None:
-            self.objective.observe(room_w[0], room_w[1], 0.5 * dhi_w_m2)
+            light = self.daylight(start_s) if self.daylight is not None else (None, None)
+            self.objective.observe(room_w[0], room_w[1], 0.5 * dhi_w_m2, *light)
         middle = start_s + step_s / 2.0
         if self._ephemeris is None or self._ephemeris.step_s != step_s:
             self._ephemeris = SunEphemeris(self.facade.site, step_s, batch=1440)

@@ -78,15 +78,19 @@ class SunAndView:
 
 
 class RoomAware:
-    """Solar gain priced by what the room behind needs now, plus the view [Wh/m2].
+    """Solar gain priced by what the room behind needs now, daylight, glare and view [Wh/m2].
 
-    ``r = dt (m (E b(c) - E_d tau_d(c)) + lambda v(c) [daytime])``: the direct sun the panel
-    blocks, less the sky's diffuse light it lets through (``E_d`` the diffuse irradiance on
-    the panel's plane, ``tau_d`` the diffuse transmittance of each candidate), weighted by the
-    room's need ``m``: 1 while the room is being cooled (keep the sun out), ``-heating_value``
-    while it is heated (let the sun in), ``neutral_value`` otherwise (the sun let in now is
-    cooling later). The room's state is the building simulation's at the last step, held
-    over the plan (:meth:`observe`: persistence, the only thing known of the room ahead).
+    ``r = dt (m (E b(c) - E_d tau_d(c)) + lambda v(c) + [daytime] (delta s(c) - gamma
+    g(c)))``: the direct sun the panel blocks, less the sky's diffuse light it lets through
+    (``E_d`` the diffuse irradiance on the panel's plane, ``tau_d`` the diffuse transmittance
+    of each candidate), weighted by the room's need ``m``: 1 while the room is being cooled
+    (keep the sun out), ``-heating_value`` while it is heated (let the sun in),
+    ``neutral_value`` otherwise (the sun let in now is cooling later); plus, when the room's
+    daylight is known (:meth:`observe` with ``daylit`` and ``glare``), ``delta`` times the
+    share ``s(c)`` of the work plane at 300 lx or more and minus ``gamma`` times ``g(c)``, 1
+    where the eye's DGP would reach 0.40, at each candidate closure. The room's state is the
+    building simulation's at the last step, held over the plan (persistence, the only thing
+    known of the room ahead).
 
     Parameters
     ----------
@@ -96,37 +100,59 @@ class RoomAware:
         (K,) diffuse transmittance of each candidate closure [-].
     heating_value, neutral_value : float
         The weights of solar gain while heating and with neither load, in [0, 1].
+    daylight_value_w_m2, glare_value_w_m2 : float
+        ``delta`` and ``gamma`` [W/m2], ``>= 0``: an hour of the whole work plane daylit is
+        worth ``delta`` Wh/m2 of blocked sun, an hour of glare costs ``gamma``.
     """
 
     unit = 'Wh/m2'
 
     def __init__(self, view_value_w_m2, diffuse_transmittance, heating_value=0.5,
-                 neutral_value=0.5):
+                 neutral_value=0.5, daylight_value_w_m2=0.0, glare_value_w_m2=0.0):
         self.view = SunAndView(view_value_w_m2)
         self.diffuse_transmittance = np.asarray(diffuse_transmittance, dtype=float)
         for name, value in (('heating_value', heating_value),
                             ('neutral_value', neutral_value)):
             if not 0.0 <= real_scalar(name, value) <= 1.0:
                 raise ValueError(f'{name} must lie in [0, 1], got {value:g}')
+        for name, value in (('daylight_value_w_m2', daylight_value_w_m2),
+                            ('glare_value_w_m2', glare_value_w_m2)):
+            if not real_scalar(name, value) >= 0.0:
+                raise ValueError(f'{name} must not be negative, got {value:g} W/m2')
         self.heating_value, self.neutral_value = float(heating_value), float(neutral_value)
+        self.daylight_value_w_m2 = float(daylight_value_w_m2)
+        self.glare_value_w_m2 = float(glare_value_w_m2)
         self.need = neutral_value
         self.diffuse_w_m2 = 0.0
+        self.room_light = np.zeros_like(self.diffuse_transmittance)
 
-    def observe(self, cooling_w, heating_w, diffuse_w_m2):
+    def observe(self, cooling_w, heating_w, diffuse_w_m2, daylit=None, glare=None):
         """Take the room's state of the last step.
 
         ``cooling_w``, ``heating_w`` its sensible cooling and heating rates [W];
-        ``diffuse_w_m2`` the sky's diffuse irradiance on the facade [W/m2].
+        ``diffuse_w_m2`` the sky's diffuse irradiance on the facade [W/m2]; ``daylit`` and
+        ``glare`` (K,) the share of the work plane at 300 lx or more and whether the eye's
+        DGP reaches 0.40 at each candidate closure, now (``None``: not known, no term).
         """
         self.need = (1.0 if cooling_w > 0.0 else -self.heating_value if heating_w > 0.0
                      else self.neutral_value)
         self.diffuse_w_m2 = max(float(diffuse_w_m2), 0.0)
+        light = np.zeros_like(self.diffuse_transmittance)
+        for value, price, sign in ((daylit, self.daylight_value_w_m2, 1.0),
+                                   (glare, self.glare_value_w_m2, -1.0)):
+            if value is not None:
+                value = np.asarray(value, dtype=float)
+                if value.shape != light.shape or not np.all(np.isfinite(value)):
+                    raise ValueError(f'daylit and glare must be {light.shape[0]} finite '
+                                     f'values, one per candidate, got {value.shape}')
+                light = light + sign * price * value
+        self.room_light = light
 
     def rewards(self, stage):
         """(T, N, K) rewards of holding each candidate over each step [Wh/m2]."""
         step_h = np.asarray(stage.step_h, dtype=float)[:, None, None]
         gain = stage.direct_w_m2[..., None] * stage.blocked \
             - self.diffuse_w_m2 * self.diffuse_transmittance[None, None, :]
-        view = (self.view.view_value_w_m2 * np.asarray(stage.view)[None, None, :]
-                * np.asarray(stage.daylight)[:, None, None])
-        return step_h * (self.need * gain + view)
+        daytime = np.asarray(stage.daylight)[:, None, None]
+        view = self.view.view_value_w_m2 * np.asarray(stage.view)[None, None, :] * daytime
+        return step_h * (self.need * gain + view + self.room_light[None, None, :] * daytime)

@@ -5,8 +5,9 @@ a shoebox office (6 x 6 x 3.5 m, a south window of 60 % of the wall) behind the 
 6 x 6 demonstrator, the file's whole year at EnergyPlus's 10-minute step, for every strategy
 (the facade's controller, the other controller, the threshold rule, always open, always
 closed) and the room without a facade: cooling, heating and lighting energy, peak cooling,
-solar gain, the facade's mean transmittance, moves and air. An EPW file, or a TMY3 file
-rewritten as one for EnergyPlus (``flectofold_model.environment.epw``);
+solar gain, the facade's mean transmittance, moves and air; and by Radiance (matrices per
+closure state) the room's daylight and glare: sDA, ASE, UDI, glare hours. An EPW file, or a
+TMY3 file rewritten as one for EnergyPlus (``flectofold_model.environment.epw``);
 ``msg_docs/building.md`` explains every figure.
 """
 
@@ -36,10 +37,15 @@ def main(args=None):
     parser.add_argument('--rows', default=None,
                         help='comma-separated rows to run (default: all): no facade, '
                              'scheduled, target rule, threshold, always open, always closed, '
-                             'predictive')
+                             'predictive, room-aware')
     parser.add_argument('--csv', type=Path, default=None, help='write the table here')
     parser.add_argument('--png', type=Path, default=None,
                         help='write a bar chart of the energies here')
+    parser.add_argument('--no-daylight', dest='daylight', action='store_false',
+                        help='skip the Radiance daylight and glare (about 2 min of matrices)')
+    parser.add_argument('--grid-spacing', type=float, default=0.6,
+                        help='work-plane sensor spacing [m] (default 0.6, LM-83: at most '
+                             '0.61 m)')
     parser.add_argument('--keep', type=Path, default=None,
                         help='keep EnergyPlus outputs in this folder (one per row)')
     options = parser.parse_args((sys.argv if args is None else args)[1:])
@@ -57,6 +63,13 @@ def _period(text, what):
     return month, day
 
 
+def grid_spacing_m(value):
+    """Return ``value`` if it is a work-plane grid spacing in [0.1, 3] m, else raise."""
+    if not 0.1 <= value <= 3.0:
+        raise ValueError(f'--grid-spacing must lie in [0.1, 3] m, got {value:g}')
+    return value
+
+
 def report(options):
     """Read the inputs, run every row, print the table, write the CSV and PNG."""
     from flectofold_model.building.building_report import building_report, ROWS
@@ -69,6 +82,7 @@ def report(options):
         raise ValueError(f'last date {options.last_date} is before the first '
                          f'{options.first_date}')
     rows = ROWS if options.rows is None else tuple(r.strip() for r in options.rows.split(','))
+    grid_spacing_m(options.grid_spacing)
     for path in (options.csv, options.png):
         if path is not None and not path.parent.is_dir():
             raise ValueError(f'{path}: folder {path.parent} does not exist')
@@ -83,14 +97,19 @@ def report(options):
         result = building_report(
             facade, weather, str(epw), run_period=(first, last), rows=rows,
             workdir=None if options.keep is None else str(options.keep),
+            daylight={'spacing_m': options.grid_spacing} if options.daylight else None,
             progress=lambda text: print(f'building_report: {text}', flush=True))
     print('\n'.join(result.lines()))
     if options.csv is not None:
         fields = ('name', 'cooling_kwh_m2', 'heating_kwh_m2', 'lighting_kwh_m2',
                   'peak_cooling_w_m2', 'transmitted_solar_kwh', 'mean_transmittance',
                   'moves_per_panel', 'air_nl')
-        lines = [','.join(fields)] + [','.join(str(getattr(r, f)) for f in fields)
-                                      for r in result.rows]
+        light = ('sda', 'ase', 'udi', 'udi_short', 'udi_exceeded', 'mean_lx', 'glare_hours',
+                 'glare_autonomy', 'sun_in_view_hours')
+        lines = [','.join(fields + light)] + [
+            ','.join([str(getattr(r, f)) for f in fields]
+                     + [str(getattr(r.daylight, f)) if r.daylight is not None else ''
+                        for f in light]) for r in result.rows]
         options.csv.write_text('\n'.join(lines) + '\n')
         print(f'csv: {options.csv.resolve()}')
     if options.png is not None:
@@ -100,30 +119,69 @@ def report(options):
 
 
 def plot(result, path):
-    """Write a PNG: cooling, heating and lighting per strategy, and the solar gain."""
+    """Write a PNG: energy per strategy and month, and with daylight a map and a glare year.
+
+    Top left the cooling, heating and lighting of each row; top right each row's cooling by
+    month; with daylight, bottom left the share of office hours each work-plane sensor has
+    300 lx or more under the facade's own controller (``scheduled``; the sDA map), bottom
+    right that row's DGP at the eye by day and office hour.
+    """
     import matplotlib
     matplotlib.use('Agg')
     from matplotlib import pyplot
     import numpy as np
     names = [r.name for r in result.rows]
     x = np.arange(len(names))
-    figure, axes = pyplot.subplots(2, 1, figsize=(10, 7), sharex=True)
+    lit = {r.name: r for r in result.rows if r.daylight is not None}
+    figure, axes = pyplot.subplots(2 if lit else 1, 2, figsize=(13, 9 if lit else 4.5),
+                                   squeeze=False)
     bottom = np.zeros(len(names))
     for field, colour in (('cooling_kwh_m2', 'tab:blue'), ('heating_kwh_m2', 'tab:red'),
                           ('lighting_kwh_m2', 'gold')):
         values = np.array([getattr(r, field) for r in result.rows])
-        axes[0].bar(x, values, 0.6, bottom=bottom, color=colour,
-                    label=field.split('_')[0])
+        axes[0, 0].bar(x, values, 0.6, bottom=bottom, color=colour,
+                       label=field.split('_')[0])
         bottom += values
-    axes[0].set_ylabel('energy per m2 of floor [kWh/m2]')
-    axes[0].legend(fontsize=8)
+    axes[0, 0].set_ylabel('energy per m2 of floor [kWh/m2]')
+    axes[0, 0].set_xticks(x)
+    axes[0, 0].set_xticklabels(names, fontsize=7, rotation=20)
+    axes[0, 0].legend(fontsize=8)
     (m0, d0), (m1, d1) = result.run_period
-    axes[0].set_title(f'{result.facade_name} before a shoebox office, {m0:02d}-{d0:02d} to '
-                      f'{m1:02d}-{d1:02d}\n{result.source}', fontsize=9)
-    axes[1].bar(x, [r.transmitted_solar_kwh for r in result.rows], 0.6, color='tab:orange')
-    axes[1].set_ylabel('solar transmitted by the window [kWh]')
-    axes[1].set_xticks(x)
-    axes[1].set_xticklabels(names, fontsize=8)
+    figure.suptitle(f'{result.facade_name} before a shoebox office, {m0:02d}-{d0:02d} to '
+                    f'{m1:02d}-{d1:02d}, {result.source}', fontsize=9)
+    months = np.arange(1, 13)
+    for row in result.rows:
+        if row.monthly_kwh_m2:
+            axes[0, 1].plot(months, row.monthly_kwh_m2['cooling'], marker='o', markersize=3,
+                            label=row.name)
+    axes[0, 1].set_xlabel('month')
+    axes[0, 1].set_ylabel('cooling per m2 of floor [kWh/m2]')
+    axes[0, 1].legend(fontsize=7)
+    if lit:
+        name = 'scheduled' if 'scheduled' in lit else next(iter(lit))
+        figures = lit[name].daylight
+        room = result.room
+        from flectofold_model.building.daylight import GLARE_DGP
+        share = figures.autonomy_by_sensor.reshape(figures.grid_shape)
+        image = axes[1, 0].imshow(100 * share, origin='lower', cmap='viridis', vmin=0,
+                                  vmax=100, extent=(-room.width_m / 2, room.width_m / 2,
+                                                    0.0, room.depth_m), aspect='equal')
+        figure.colorbar(image, ax=axes[1, 0], label='office hours at 300 lx or more [%]')
+        axes[1, 0].set_xlabel('across the room [m]')
+        axes[1, 0].set_ylabel('from the window [m]')
+        axes[1, 0].set_title(f'{name}: sDA300/50% {100 * figures.sda:.0f} %', fontsize=9)
+        days = figures.hours // 24
+        hours = figures.hours % 24
+        table = np.full((365, 24), np.nan)
+        table[days, hours] = figures.dgp
+        shown = table[:, 8:18].T
+        image = axes[1, 1].imshow(shown, origin='lower', aspect='auto', cmap='inferno',
+                                  vmin=0.2, vmax=0.6, extent=(0, 365, 8, 18))
+        figure.colorbar(image, ax=axes[1, 1], label='DGP at the eye [-]')
+        axes[1, 1].set_xlabel('day of the year')
+        axes[1, 1].set_ylabel('hour (local standard time)')
+        axes[1, 1].set_title(f'{name}: {figures.glare_hours} h with DGP >= {GLARE_DGP:g}',
+                             fontsize=9)
     figure.tight_layout()
     figure.savefig(path, dpi=100)
     pyplot.close(figure)

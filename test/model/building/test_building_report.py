@@ -111,3 +111,25 @@ def test_unknown_rows_and_wrong_inputs_are_refused(facade, table, epw):
         report.building_report(facade, epw, epw, table=table)
     with pytest.raises(TypeError, match='Room'):
         report.building_report(facade, weather, epw, room={'width_m': 6}, table=table)
+
+
+COARSE_DAYLIGHT = {'states': (0.0, 0.5, 1.0), 'spacing_m': 2.0,
+                   'params': ('-ab', '3', '-ad', '2048', '-lw', '1e-4')}
+
+
+def test_daylight_follows_the_closures_each_row_held(facade, table, epw):
+    lit = report.building_report(facade, read_weather(epw), epw, run_period=((1, 15), (1, 16)),
+                                 table=table, daylight=COARSE_DAYLIGHT,
+                                 rows=('no facade', 'always open', 'always closed',
+                                       'room-aware'))
+    figures = {row.name: row.daylight for row in lit.rows}
+    assert all(f is not None and f.office_hours == 20 for f in figures.values())
+    assert figures['no facade'].mean_lx > figures['always closed'].mean_lx \
+        > figures['always open'].mean_lx
+    assert figures['always open'].glare_hours <= figures['always closed'].glare_hours
+    # the hourly closures the daylight used are the ones the loop wrote
+    row = lit.figures('room-aware')
+    assert row.closure.size == row.steps.size == 2 * 144
+    assert np.all((row.closure >= 0.0) & (row.closure <= 1.0))
+    text = '\n'.join(lit.lines())
+    assert 'sDA300' in text and 'glare' in text

@@ -107,3 +107,23 @@ def test_the_room_aware_objective_prices_solar_gain_by_the_rooms_need():
     assert heating[0] == -250.0 and heating[1] == pytest.approx(25.0 + 72.0)
     with pytest.raises(ValueError, match='heating_value'):
         RoomAware(90.0, np.zeros(2), heating_value=1.5)
+
+
+def test_the_room_aware_objective_adds_daylight_and_glare_by_day_only_when_told():
+    from flectofold_model.scheduling.objective import RoomAware, Stage
+    stage = Stage(direct_w_m2=np.zeros((2, 1)), blocked=np.zeros((2, 1, 2)),
+                  view=np.zeros(2), daylight=np.array([True, False]), step_h=np.ones(2))
+    objective = RoomAware(90.0, np.zeros(2), daylight_value_w_m2=60.0, glare_value_w_m2=300.0)
+    objective.observe(0.0, 0.0, 0.0)  # nothing known of the room's light: no term
+    assert np.all(objective.rewards(stage) == 0.0)
+    objective.observe(0.0, 0.0, 0.0, daylit=[0.5, 1.0], glare=[0.0, 1.0])
+    rewards = objective.rewards(stage)
+    np.testing.assert_allclose(rewards[0, 0], [30.0, 60.0 - 300.0])
+    np.testing.assert_allclose(rewards[1, 0], [0.0, 0.0])  # the sun is down
+    for bad in ([0.5], [0.5, np.nan]):
+        with pytest.raises(ValueError, match='one per candidate'):
+            objective.observe(0.0, 0.0, 0.0, daylit=bad, glare=[0.0, 0.0])
+    for name in ('daylight_value_w_m2', 'glare_value_w_m2'):
+        assert RoomAware(90.0, np.zeros(2), **{name: 0.0})  # the bound itself
+        with pytest.raises(ValueError, match=name):
+            RoomAware(90.0, np.zeros(2), **{name: -1e-9})
