@@ -9,6 +9,9 @@ Default values [estimate]: woven E-glass/epoxy made by vacuum infusion has E of 
 is 0.2-0.3 mm thick (``docs/references.md`` section 3, after textbook values). The
 Flectofold papers grade stiffness by the number of plies per zone but do not publish the
 lay-ups, so the thicknesses of the presets are estimates calibrated to the published pressures.
+
+Allowable strain [estimate]: :data:`FATIGUE_ALLOWABLE_STRAIN`, the peak surface strain a zone
+may see at every cycle (:mod:`.strain` compares the model's strains with it).
 """
 
 from dataclasses import dataclass
@@ -19,6 +22,16 @@ from flectofold_model._validate import real_fields
 GFRP_YOUNGS_MODULUS_PA = 20e9
 #: Poisson's ratio of woven glass/epoxy (estimate).
 GFRP_POISSON_RATIO = 0.13
+#: Peak surface strain a glass-fibre laminate may see at every one of about 1e7 cycles
+#: (dimensionless): an illustrative fatigue strain, not a design value. Glass-fibre laminates
+#: follow the normalised S-N trend ``S / S0 ~ 1 - 0.1 log10 N`` (Mandell, Reed & Samborsky,
+#: "Fatigue of fiberglass wind turbine blade materials", SAND92-7005; the DOE/MSU composite
+#: materials fatigue database, Mandell & Samborsky, SAND97-3002): at 1e7 cycles about 30 % of
+#: the static strength. With a static failure strain of 2-3 % for E-glass laminates that is
+#: about 0.7 % (``docs/references.md`` section 3).
+FATIGUE_ALLOWABLE_STRAIN = 0.007
+#: Largest allowable strain a laminate accepts: above the static failure strain of E-glass.
+MAX_ALLOWABLE_STRAIN = 0.05
 
 
 @dataclass(frozen=True)
@@ -31,6 +44,9 @@ class Laminate:
     """Effective in-plane Young's modulus [Pa]."""
     poisson_ratio: float = GFRP_POISSON_RATIO
     """Poisson's ratio (dimensionless)."""
+    allowable_strain: float = FATIGUE_ALLOWABLE_STRAIN
+    """Largest peak surface strain the zone may see in service (dimensionless), in
+    ``(0, 0.05]``; the default is the fatigue estimate :data:`FATIGUE_ALLOWABLE_STRAIN`."""
 
     def __post_init__(self):
         real_fields(self)
@@ -42,6 +58,9 @@ class Laminate:
                 f'shape), got {self.youngs_modulus_pa:g} Pa')
         if not 0.0 <= self.poisson_ratio < 0.5:
             raise ValueError(f'poisson_ratio must lie in [0, 0.5), got {self.poisson_ratio:g}')
+        if not 0.0 < self.allowable_strain <= MAX_ALLOWABLE_STRAIN:
+            raise ValueError(f'allowable_strain must lie in (0, {MAX_ALLOWABLE_STRAIN:g}] '
+                             f'(a strain, not a percentage), got {self.allowable_strain:g}')
 
     @property
     def plate_stiffness_nm(self):

@@ -172,6 +172,17 @@ def load_facade(path=DEFAULT_FACADE):
 
     ``path`` is a YAML file, or the name of an embedded description (see
     :func:`facade_path`).
+
+    Strain check: a facade whose panels, built like the presets
+    (:func:`~flectofold_model.actuation.kinds.actuated_like`), exceed their laminates'
+    allowable strain at closure 1 gets one
+    :class:`~flectofold_model.actuation.strain.StrainLimitWarning` naming the worst panel and
+    its strain and how many panels exceed. Closure 1 is the largest closure a facade can
+    command: a description sets no closure limit (``control.default_closure``, overrides and
+    the scheduler all reach 1). A warning, not a :class:`FacadeError`: the laminates, hinge
+    widths and allowable strain are estimates, and refusing would stop every facade built on
+    them (the embedded ones included). The check runs here, where a user or a node loads a
+    description, and not in :func:`build_facade`, the programmatic build from text.
     """
     path = facade_path(path)
     try:
@@ -183,7 +194,19 @@ def load_facade(path=DEFAULT_FACADE):
                           f'{embedded})') from None
     except YAMLInputError as error:
         raise FacadeError(str(error)) from None
-    return _build_document(document, Path(path).parent)
+    facade = _build_document(document, Path(path).parent)
+    _warn_about_strain(facade)
+    return facade
+
+
+def _warn_about_strain(facade):
+    """Warn (:class:`~.strain.StrainLimitWarning`, once) if panels exceed allowable strains.
+
+    One place for both panel kinds: the strain check picks the kind's preset laminates.
+    """
+    from flectofold_model.actuation.strain import warn_if_over_allowable
+    warn_if_over_allowable(facade.panels, facade.panel_ids, f'facade {facade.name}',
+                           closure=1.0, stacklevel=3)
 
 
 def surface_quads(path=DEFAULT_FACADE):

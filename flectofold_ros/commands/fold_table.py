@@ -4,12 +4,16 @@ Run as ``ros2 run flectofold_ros fold_table`` or ``fold_table`` in the venv.
 """
 
 import argparse
+import dataclasses
 import math
 import sys
 
 import numpy as np
 
 from flectofold_model import DEMONSTRATOR_MODULE, FoldModel, PanelBatch, PROTOTYPE
+from flectofold_model.actuation import actuated_like, DEMONSTRATOR_ACTUATED, StripCushion
+from flectofold_model.actuation.laminate import FATIGUE_ALLOWABLE_STRAIN
+from flectofold_model.actuation.strain import panel_strain, strain_exceedance
 from flectofold_model.kinematics import reflection
 from flectofold_model.kinematics.hexagon import HEXAGON_MODULE, HexagonBatch, HexagonFoldModel
 from flectofold_model.kinematics.hexagon.panel import HexagonPanel
@@ -17,6 +21,16 @@ from flectofold_ros.runner import run_command
 
 PANELS = {'demonstrator': DEMONSTRATOR_MODULE, 'prototype': PROTOTYPE,
           'quad': DEMONSTRATOR_MODULE, 'hexagon': HEXAGON_MODULE}
+
+#: (name, header format, cell format, meaning) of the strain columns both panel kinds print.
+STRAIN_COLUMNS = (
+    ('hinge [%]', '{:>9}', '{:9.2f}',
+     'peak hinge surface strain, (rho - rho_open) t_h / (2 b), largest along the crease'),
+    ('mid-rib [%]', '{:>11}', '{:11.2f}',
+     'peak mid-rib surface strain, |kappa - kappa_open| t_m / 2 (hexagon: at the cone core)'),
+    ('flap [%]', '{:>8}', '{:8.2f}',
+     'peak flap surface strain, |kappa - kappa_open| t_f / 2 (the flaps bend as the mid-rib)'),
+)
 
 #: (name, header format, cell format, meaning) of the quad panel's columns.
 COLUMNS = (
@@ -29,7 +43,7 @@ COLUMNS = (
     ('tip travel [mm]', '{:>15}', '{:15.1f}', 'distance a flap tip moved from the open state'),
     ('amplification', '{:>13}', '{:13.1f}', 'tip travel / support travel'),
     ('local law [deg]', '{:>15}', '{:15.1f}', '2 atan(kappa0 R), for comparison'),
-)
+) + STRAIN_COLUMNS
 
 #: (name, header format, cell format, meaning) of the hexagonal panel's columns.
 HEXAGON_COLUMNS = (
@@ -44,7 +58,22 @@ HEXAGON_COLUMNS = (
      'elevation amplitude of the central cone between spokes'),
     ('tip travel [mm]', '{:>15}', '{:15.1f}', 'distance a flap tip moved from the open state'),
     ('amplification', '{:>13}', '{:13.1f}', 'tip travel / rise travelled since open'),
-)
+) + STRAIN_COLUMNS
+
+
+def actuated_preset(panel):
+    """Return the actuated panel whose laminates the table's strains use, for a geometry.
+
+    The demonstrator module gets ``DEMONSTRATOR_ACTUATED`` and a hexagonal panel the
+    hexagonal preset's build (``HEXAGON_ACTUATED``); any other quad panel (the prototype) the
+    demonstrator's laminates with a cushion sized to it as in ``radius_study`` (80 % of the
+    mid-rib wide and long; the cushion does not enter the strains).
+    """
+    if isinstance(panel, HexagonPanel) or panel == DEMONSTRATOR_MODULE:
+        return actuated_like(panel)
+    cushion = StripCushion(flat_width_m=0.8 * panel.midrib_width_m,
+                           length_m=0.8 * panel.length_m, mount_gap_m=0.003)
+    return actuated_like(panel, dataclasses.replace(DEMONSTRATOR_ACTUATED, cushion=cushion))
 
 
 def fold_table(panel, steps):
@@ -54,10 +83,11 @@ def fold_table(panel, steps):
     model = FoldModel(PanelBatch.repeat(panel, steps))
     state = model.state_from_closure(np.linspace(0.0, 1.0, steps))
     local = reflection.local_law_apex_fold_angle(model.batch, state.elastica_k)
+    actuated = actuated_preset(panel)
     rows = zip(state.closure, np.degrees(state.apex_fold_angle_rad),
                state.support_displacement_m * 1e3, state.midrib_sag_m * 1e3,
                np.degrees(state.midrib_end_rotation_rad), state.tip_travel_m * 1e3,
-               state.amplification, np.degrees(local))
+               state.amplification, np.degrees(local), *_strain_columns(actuated, steps))
     lines = [
         f'panel {panel.length_m:g} m x {panel.width_m:g} m, fold radius {panel.fold_radius_m:g} m,'
         f' mid-rib {panel.midrib_width_m * 1e3:.0f} mm wide ({panel.midrib_end_width_m * 1e3:.0f}'
@@ -70,17 +100,18 @@ def fold_table(panel, steps):
     lines += _table(COLUMNS, rows)
     lines.append('fold: three-point-plane apex fold angle (the model); local law: '
                  '2 atan(kappa0 R), for comparison; amplification: tip travel / support travel')
-    return lines
+    return lines + _strain_lines(actuated)
 
 
 def hexagon_fold_table(panel, steps):
     """Lines of a hexagonal panel's fold table for ``steps`` closures from open to closed."""
     model = HexagonFoldModel(HexagonBatch.repeat(panel, steps))
     state = model.state_from_closure(np.linspace(0.0, 1.0, steps))
+    actuated = actuated_preset(panel)
     rows = zip(state.closure, np.degrees(state.apex_fold_angle_rad), state.centre_rise_m * 1e3,
                state.vertex_displacement_m * 1e3, np.degrees(state.spoke_tilt_rad),
                np.degrees(state.cone_amplitude_rad), state.tip_travel_m * 1e3,
-               state.amplification)
+               state.amplification, *_strain_columns(actuated, steps))
     lines = [
         f'hexagonal panel, circumradius {panel.circumradius_m:g} m ({panel.area_m2:.3f} m2, '
         f'{panel.across_flats_m:.3f} m across flats), fold-line sag '
@@ -95,7 +126,27 @@ def hexagon_fold_table(panel, steps):
     lines += _table(HEXAGON_COLUMNS, rows)
     lines.append('fold: apex fold angle (the model); vertex in: R - sqrt(R^2 - rise^2); '
                  'amplification: tip travel / rise travelled since open')
-    return lines
+    return lines + _strain_lines(actuated)
+
+
+def _strain_columns(actuated, steps):
+    """Hinge, mid-rib and flap strains [%] of ``actuated`` at ``steps`` closures."""
+    strain = panel_strain([actuated] * steps, np.linspace(0.0, 1.0, steps))
+    return strain.hinge_strain * 100, strain.midrib_strain * 100, strain.flap_strain * 100
+
+
+def _strain_lines(actuated):
+    """Return the lay-up the strains assume, the allowable strain, its source, the verdict."""
+    allowable = actuated.hinge.allowable_strain
+    source = ('fatigue of glass-fibre laminates at 1e7 cycles, after Mandell & Samborsky, '
+              'an estimate' if allowable == FATIGUE_ALLOWABLE_STRAIN else 'set on the laminate')
+    return [
+        f'strains from the open state (the pre-fold is moulded in), beam theory kappa t / 2; '
+        f'lay-up (estimates): hinge {actuated.hinge.thickness_m * 1e3:g} mm, mid-rib '
+        f'{actuated.midrib.thickness_m * 1e3:g} mm, flaps {actuated.flap.thickness_m * 1e3:g} '
+        f'mm; allowable strain {allowable * 100:.1f} % ({source})',
+        strain_exceedance(actuated, 1.0),
+    ]
 
 
 def _table(columns, rows):
@@ -113,6 +164,10 @@ def _legend():
     lines.append('columns, hexagonal panels (hexagon):')
     lines += [f'  {name:<16} {meaning}' for name, _, _, meaning in HEXAGON_COLUMNS]
     lines.append('a "-" marks a value that is not defined there (amplification at zero travel)')
+    lines.append(f'strains are peak surface strains from the open state, for the laminates of '
+                 f'the presets; the line after the table compares the closed state with the '
+                 f'allowable strain ({FATIGUE_ALLOWABLE_STRAIN * 100:.1f} %, fatigue of '
+                 f'glass-fibre laminates at 1e7 cycles) and gives the hinge width it would need')
     return '\n'.join(lines)
 
 
