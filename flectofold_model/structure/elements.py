@@ -1,0 +1,151 @@
+"""The elements of the structural sheet: membrane triangles, dihedral angles, cushion prisms.
+
+Every element is vectorised over many elements of one kind. Each function takes the current
+node positions of the elements' corners, shape ``(m, k, 3)`` for ``m`` elements of ``k``
+nodes, and returns energies ``(m,)``, gradients ``(m, k, 3)`` or Hessians ``(m, 3k, 3k)``.
+
+* **Membrane**: the constant-strain triangle with the St Venant-Kirchhoff law in plane stress,
+  energy ``A0 (C / 2) [(1 - nu) tr(E^2) + nu tr(E)^2]`` per element, ``C = E t / (1 - nu^2)``,
+  ``E`` the Green-Lagrange strain of the flat reference; exact for large rotations.
+* **Dihedral angle** of two triangles sharing an edge, signed, 0 flat, with its gradient in
+  the closed form of Bridson, Marino & Fedkiw (SCA 2003); the bending energy built on it is
+  in :mod:`.shell`.
+* **Cushion prism**: the volume between a triangle of the loaded surface and the fixed plane
+  ``z = z0`` below it, ``S_z (z_mean - z0)`` with ``S_z`` the triangle's area projected on the
+  plane. Its gradient times the gauge pressure is the cushion's load, which therefore follows
+  the surface as it turns (a follower load) and is conservative: the work of the pressure
+  equals ``integral p dV`` exactly.
+
+Hessians are central differences of the analytic gradients, element by element (the energies
+are smooth; the step is :data:`HESSIAN_STEP_M`), which keeps Newton's method quadratic to
+the residuals the path solver asks for.
+"""
+
+import numpy as np
+
+#: Step of the central differences of the element Hessians [m, or rad for rotations].
+HESSIAN_STEP_M = 1e-7
+
+
+def membrane_reference(reference_xy):
+    """Inverse reference edge matrices ``(m, 2, 2)`` and reference areas ``(m,)`` [m2].
+
+    ``reference_xy`` holds the flat corners ``(m, 3, 2)``, counter-clockwise.
+    """
+    edges = np.stack([reference_xy[:, 1] - reference_xy[:, 0],
+                      reference_xy[:, 2] - reference_xy[:, 0]], axis=-1)
+    area = 0.5 * np.linalg.det(edges)
+    if np.any(area <= 0.0):
+        raise ValueError('membrane triangles must be counter-clockwise with positive area')
+    return np.linalg.inv(edges), area
+
+
+def membrane_energy(corners, inverse, area, modulus_n_per_m, poisson):
+    """Strain energy of constant-strain triangles [J] (``modulus = E t / (1 - nu^2)``)."""
+    strain = _green_strain(corners, inverse)
+    trace = strain[:, 0, 0] + strain[:, 1, 1]
+    squared = np.einsum('mij,mij->m', strain, strain)
+    return area * 0.5 * modulus_n_per_m * ((1.0 - poisson) * squared + poisson * trace**2)
+
+
+def membrane_gradient(corners, inverse, area, modulus_n_per_m, poisson):
+    """Gradient of :func:`membrane_energy` with respect to the corners ``(m, 3, 3)`` [N]."""
+    deformation = _deformation(corners, inverse)
+    strain = 0.5 * (np.einsum('mki,mkj->mij', deformation, deformation) - np.eye(2))
+    trace = strain[:, 0, 0] + strain[:, 1, 1]
+    stress = modulus_n_per_m[:, None, None] * (
+        (1.0 - poisson)[:, None, None] * strain + (poisson * trace)[:, None, None] * np.eye(2))
+    edge_force = area[:, None, None] * np.einsum('mki,mij,mlj->mkl', deformation, stress,
+                                                 inverse)
+    gradient = np.empty_like(corners)
+    gradient[:, 1:] = np.swapaxes(edge_force, 1, 2)
+    gradient[:, 0] = -edge_force.sum(axis=2)
+    return gradient
+
+
+def _deformation(corners, inverse):
+    edges = np.stack([corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]], axis=-1)
+    return edges @ inverse
+
+
+def _green_strain(corners, inverse):
+    deformation = _deformation(corners, inverse)
+    return 0.5 * (np.einsum('mki,mkj->mij', deformation, deformation) - np.eye(2))
+
+
+def dihedral_angle(corners):
+    """Signed dihedral angles of hinges ``(m,)`` [rad], 0 when the two triangles are flat.
+
+    A hinge's corners are ``(edge start, edge end, wing of triangle A, wing of triangle B)``;
+    triangle A is ``(edge start, edge end, wing A)`` counter-clockwise in the reference and
+    triangle B ``(edge end, edge start, wing B)``.
+    """
+    edge, normal_a, normal_b = _hinge_vectors(corners)
+    length = np.linalg.norm(edge, axis=-1)
+    sine = np.einsum('mi,mi->m', np.cross(normal_a, normal_b), edge) / length
+    cosine = np.einsum('mi,mi->m', normal_a, normal_b)
+    return np.arctan2(sine, cosine)
+
+
+def dihedral_gradient(corners):
+    """Gradient of :func:`dihedral_angle` with respect to the corners ``(m, 4, 3)`` [1/m]."""
+    edge, normal_a, normal_b = _hinge_vectors(corners)
+    length_sq = np.einsum('mi,mi->m', edge, edge)
+    length = np.sqrt(length_sq)
+    wing_a = (length / np.einsum('mi,mi->m', normal_a, normal_a))[:, None] * normal_a
+    wing_b = (length / np.einsum('mi,mi->m', normal_b, normal_b))[:, None] * normal_b
+    along_a = np.einsum('mi,mi->m', corners[:, 2] - corners[:, 0], edge) / length_sq
+    along_b = np.einsum('mi,mi->m', corners[:, 3] - corners[:, 0], edge) / length_sq
+    gradient = np.empty_like(corners)
+    gradient[:, 2] = -wing_a
+    gradient[:, 3] = -wing_b
+    gradient[:, 0] = ((1.0 - along_a)[:, None] * wing_a + (1.0 - along_b)[:, None] * wing_b)
+    gradient[:, 1] = along_a[:, None] * wing_a + along_b[:, None] * wing_b
+    return gradient
+
+
+def _hinge_vectors(corners):
+    edge = corners[:, 1] - corners[:, 0]
+    normal_a = np.cross(edge, corners[:, 2] - corners[:, 0])
+    normal_b = np.cross(corners[:, 3] - corners[:, 0], edge)
+    return edge, normal_a, normal_b
+
+
+def prism_volume(corners, base_z_m):
+    """Volume between surface triangles and the plane ``z = base_z_m`` ``(m,)`` [m3]."""
+    return _projected_area(corners) * (corners[:, :, 2].mean(axis=1) - base_z_m)
+
+
+def prism_gradient(corners, base_z_m):
+    """Gradient of :func:`prism_volume` ``(m, 3, 3)`` [m2]: the load per pascal."""
+    x, y = corners[:, :, 0], corners[:, :, 1]
+    height = corners[:, :, 2].mean(axis=1) - base_z_m
+    gradient = np.empty_like(corners)
+    following, preceding = [1, 2, 0], [2, 0, 1]
+    gradient[:, :, 0] = 0.5 * (y[:, following] - y[:, preceding]) * height[:, None]
+    gradient[:, :, 1] = 0.5 * (x[:, preceding] - x[:, following]) * height[:, None]
+    gradient[:, :, 2] = (_projected_area(corners) / 3.0)[:, None]
+    return gradient
+
+
+def _projected_area(corners):
+    x, y = corners[:, :, 0], corners[:, :, 1]
+    return 0.5 * ((x[:, 1] - x[:, 0]) * (y[:, 2] - y[:, 0])
+                  - (x[:, 2] - x[:, 0]) * (y[:, 1] - y[:, 0]))
+
+
+def finite_difference_hessian(gradient, local, step=HESSIAN_STEP_M):
+    """Central-difference Hessians ``(m, k, k)`` of an element gradient function.
+
+    ``gradient(local)`` maps the elements' local unknowns ``(m, k)`` to ``(m, k)``; the
+    Hessian is symmetrised.
+    """
+    count, size = local.shape
+    hessian = np.empty((count, size, size))
+    for column in range(size):
+        plus = local.copy()
+        minus = local.copy()
+        plus[:, column] += step
+        minus[:, column] -= step
+        hessian[:, :, column] = (gradient(plus) - gradient(minus)) / (2.0 * step)
+    return 0.5 * (hessian + np.swapaxes(hessian, 1, 2))

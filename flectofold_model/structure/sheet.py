@@ -1,0 +1,420 @@
+"""A thin sheet as membrane triangles and mid-edge bending, and its equilibrium path.
+
+:class:`Sheet` holds a flat triangulated sheet with a laminate per triangle, the supported
+degrees of freedom and the triangles a cushion presses on; :func:`trace_path` follows its
+equilibrium under rising cushion volume (volume control: each step fixes the volume of air
+under the loaded triangles and solves for the shape and the pressure together), so that a
+pressure that stops rising, a limit point, is passed and reported rather than hidden. Newton's
+method on the augmented system ``[H - p H_V, -g_V; -g_V^T, 0]``, sparse LU (the tangent is
+not positive definite beyond a limit point).
+"""
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.sparse import coo_matrix, csc_matrix
+from scipy.sparse.linalg import splu
+
+from flectofold_model.structure import elements
+from flectofold_model.structure.shell import MidEdgeBending
+
+
+@dataclass(frozen=True)
+class Sheet:
+    """A flat triangulated sheet with its laminates, supports and cushion footprint."""
+
+    reference_xy_m: np.ndarray
+    """Flat node positions ``(n, 2)`` [m]; the sheet lies in ``z = 0``."""
+    triangles: np.ndarray
+    """Node indices ``(m, 3)``, counter-clockwise."""
+    thickness_m: np.ndarray
+    """Laminate thickness per triangle ``(m,)`` [m]."""
+    youngs_modulus_pa: np.ndarray
+    """In-plane Young's modulus per triangle ``(m,)`` [Pa]."""
+    poisson_ratio: np.ndarray
+    """Poisson's ratio per triangle ``(m,)``."""
+    fixed: np.ndarray
+    """Supported degrees of freedom ``(n, 3)``, True where the coordinate is held."""
+    loaded: np.ndarray
+    """Triangles the cushion presses on ``(m,)``, bool."""
+    base_z_m: float
+    """Height of the plane that holds the cushion's back [m] (below the sheet: negative)."""
+    zone: np.ndarray = None
+    """Optional label per triangle ``(m,)`` (e.g. 0 mid-rib, 1 hinge, 2 flap)."""
+
+    def __post_init__(self):
+        xy = np.asarray(self.reference_xy_m, dtype=np.float64)
+        triangles = np.asarray(self.triangles, dtype=np.int64)
+        count = len(triangles)
+        if xy.ndim != 2 or xy.shape[1] != 2 or not np.all(np.isfinite(xy)):
+            raise ValueError('reference_xy_m must be finite with shape (n, 2)')
+        if triangles.ndim != 2 or triangles.shape[1] != 3 or triangles.min() < 0 \
+                or triangles.max() >= len(xy):
+            raise ValueError('triangles must be (m, 3) indices into reference_xy_m')
+        for name in ('thickness_m', 'youngs_modulus_pa'):
+            values = np.asarray(getattr(self, name), dtype=np.float64)
+            if values.shape != (count,) or not np.all(values > 0.0):
+                raise ValueError(f'{name} must be positive, one per triangle')
+        poisson = np.asarray(self.poisson_ratio, dtype=np.float64)
+        if poisson.shape != (count,) or not np.all((poisson >= 0.0) & (poisson < 0.5)):
+            raise ValueError('poisson_ratio must lie in [0, 0.5), one per triangle')
+        if np.asarray(self.fixed).shape != xy.shape[:1] + (3,):
+            raise ValueError('fixed must have shape (n, 3)')
+        if np.asarray(self.loaded).shape != (count,):
+            raise ValueError('loaded must have one flag per triangle')
+        _check_manifold(triangles)
+
+    @property
+    def node_count(self):
+        """Number of nodes."""
+        return len(self.reference_xy_m)
+
+    @property
+    def plate_stiffness_nm(self):
+        """``D = E t^3 / (12 (1 - nu^2))`` per triangle [N m]."""
+        return (self.youngs_modulus_pa * self.thickness_m**3
+                / (12.0 * (1.0 - self.poisson_ratio**2)))
+
+    @property
+    def reference_areas_m2(self):
+        """Flat triangle areas [m2]."""
+        return membrane_data(self)[1]
+
+
+def _check_manifold(triangles):
+    """Refuse edges shared by more than two triangles or by two of opposite orientation."""
+    local = np.array([[0, 1], [1, 2], [2, 0]])
+    start = triangles[:, local[:, 0]].ravel()
+    end = triangles[:, local[:, 1]].ravel()
+    key = np.minimum(start, end) * (triangles.max() + 1) + np.maximum(start, end)
+    order = np.argsort(key, kind='stable')
+    key_sorted = key[order]
+    if np.any(key_sorted[2:] == key_sorted[:-2]):
+        raise ValueError('an edge is shared by more than two triangles')
+    shared = np.flatnonzero(key_sorted[1:] == key_sorted[:-1])
+    if np.any(start[order[shared]] != end[order[shared + 1]]):
+        raise ValueError('neighbouring triangles must have the same orientation')
+
+
+def membrane_data(sheet):
+    """Inverse reference edge matrices and areas of the sheet's triangles."""
+    return elements.membrane_reference(sheet.reference_xy_m[sheet.triangles])
+
+
+class SheetSystem:
+    """Energy, gradient and sparse Hessian of a sheet over its free unknowns.
+
+    The unknowns are the node coordinates (``3 n``, the supported ones held) followed by
+    one rotation per edge (the mid-edge directors of :mod:`.shell`, all free).
+    """
+
+    def __init__(self, sheet):
+        self.sheet = sheet
+        self.inverse, self.area = membrane_data(sheet)
+        self.membrane_modulus = (sheet.youngs_modulus_pa * sheet.thickness_m
+                                 / (1.0 - sheet.poisson_ratio**2))
+        self.bending = MidEdgeBending(sheet.reference_xy_m, sheet.triangles,
+                                      sheet.plate_stiffness_nm, sheet.poisson_ratio)
+        self.bending.set_shape_basis(sheet.reference_xy_m)
+        self.loaded_triangles = sheet.triangles[np.asarray(sheet.loaded, dtype=bool)]
+        nodes = sheet.node_count
+        position_dofs = 3 * nodes
+        self.size_all = position_dofs + self.bending.edge_count
+        fixed = np.concatenate([np.asarray(sheet.fixed, dtype=bool).ravel(),
+                                np.zeros(self.bending.edge_count, dtype=bool)])
+        self.free = np.flatnonzero(~fixed)
+        self.reference = np.concatenate([
+            np.column_stack([sheet.reference_xy_m, np.zeros(nodes)]).ravel(),
+            np.zeros(self.bending.edge_count)])
+        reduced = np.full(self.size_all, -1)
+        reduced[self.free] = np.arange(len(self.free))
+
+        def node_dofs(nodes_of):
+            count, per = nodes_of.shape
+            return (3 * nodes_of[:, :, None] + np.arange(3)).reshape(count, 3 * per)
+
+        bending_dofs = np.concatenate([node_dofs(self.bending.stencil),
+                                       position_dofs + self.bending.edges], axis=1)
+        self._groups = [
+            _Group(node_dofs(sheet.triangles), reduced, self._membrane_gradient, 1),
+            _Group(bending_dofs, reduced, self.bending.local_gradient, 1),
+            _Group(node_dofs(self.loaded_triangles), reduced, self._prism_gradient, 0),
+        ]
+        rows = np.concatenate([g.rows for g in self._groups])
+        cols = np.concatenate([g.cols for g in self._groups])
+        size = len(self.free)
+        unique, self._slot = np.unique(rows * size + cols, return_inverse=True)
+        self._rows, self._cols = unique // size, unique % size
+        self._size = size
+        self.extent_m = float(np.ptp(sheet.reference_xy_m, axis=0).max())
+
+    def full(self, free_values):
+        """Every unknown from the free ones."""
+        full = self.reference.copy()
+        full[self.free] = free_values
+        return full
+
+    def positions(self, free_values):
+        """Node positions ``(n, 3)`` from the free unknowns [m]."""
+        return self.full(free_values)[:3 * self.sheet.node_count].reshape(-1, 3)
+
+    def energies_j(self, free_values):
+        """``(membrane, bending)`` strain energies [J]."""
+        unknowns = self.full(free_values)
+        positions = unknowns[:3 * self.sheet.node_count].reshape(-1, 3)
+        membrane = elements.membrane_energy(positions[self.sheet.triangles], self.inverse,
+                                            self.area, self.membrane_modulus,
+                                            self.sheet.poisson_ratio)
+        bending = self.bending.local_energy(unknowns[self._groups[1].dofs])
+        return float(membrane.sum()), float(bending.sum())
+
+    def curvatures_per_m(self, free_values):
+        """Principal curvatures of every face ``(m, 2)`` [1/m], largest magnitude first."""
+        return self.bending.curvature_per_m(self.full(free_values)[self._groups[1].dofs])
+
+    def volume_m3(self, free_values):
+        """Volume under the loaded triangles down to the base plane [m3]."""
+        positions = self.positions(free_values)
+        return float(elements.prism_volume(positions[self.loaded_triangles],
+                                           self.sheet.base_z_m).sum())
+
+    def _membrane_gradient(self, local):
+        corners = local.reshape(-1, 3, 3)
+        return elements.membrane_gradient(corners, self.inverse, self.area,
+                                          self.membrane_modulus,
+                                          self.sheet.poisson_ratio).reshape(local.shape)
+
+    def _prism_gradient(self, local):
+        corners = local.reshape(-1, 3, 3)
+        return elements.prism_gradient(corners, self.sheet.base_z_m).reshape(local.shape)
+
+    def gradients(self, free_values):
+        """Strain-energy gradient and volume gradient over the free unknowns."""
+        unknowns = self.full(free_values)
+        energy = np.zeros(self.size_all)
+        volume = np.zeros(self.size_all)
+        for group in self._groups:
+            values = group.function(unknowns[group.dofs])
+            target = energy if group.strain else volume
+            target += np.bincount(group.dofs.ravel(), weights=values.ravel(),
+                                  minlength=self.size_all)
+        return energy[self.free], volume[self.free]
+
+    def hessians(self, free_values, pressure_pa):
+        """Sparse ``H - p H_V`` over the free unknowns (CSC)."""
+        unknowns = self.full(free_values)
+        parts = []
+        for group in self._groups:
+            local = elements.finite_difference_hessian(group.function, unknowns[group.dofs])
+            scale = 1.0 if group.strain else -pressure_pa
+            parts.append(scale * local[:, group.local_rows, group.local_cols][group.keep])
+        data = np.bincount(self._slot, weights=np.concatenate(parts),
+                           minlength=len(self._rows))
+        return csc_matrix(coo_matrix((data, (self._rows, self._cols)),
+                                     shape=(self._size, self._size)))
+
+
+class _Group:
+    """One element kind: its unknowns, its gradient and where its Hessian entries go."""
+
+    def __init__(self, dofs, reduced, function, strain):
+        self.dofs = dofs
+        self.function = function
+        self.strain = bool(strain)
+        per = dofs.shape[1]
+        local = np.arange(per)
+        self.local_rows = np.repeat(local, per)
+        self.local_cols = np.tile(local, per)
+        rows = reduced[dofs[:, self.local_rows]]
+        cols = reduced[dofs[:, self.local_cols]]
+        self.keep = (rows >= 0) & (cols >= 0)
+        self.rows, self.cols = rows[self.keep], cols[self.keep]
+
+
+@dataclass(frozen=True)
+class PathPoint:
+    """One equilibrium of the path."""
+
+    pressure_pa: float
+    """Cushion gauge pressure [Pa]."""
+    volume_m3: float
+    """Volume under the loaded triangles [m3]."""
+    positions_m: np.ndarray
+    """Node positions ``(n, 3)`` [m]."""
+    membrane_energy_j: float
+    """Membrane strain energy [J]."""
+    bending_energy_j: float
+    """Bending strain energy [J]."""
+    iterations: int
+    """Newton iterations the step took."""
+    residual_n: float
+    """Largest out-of-balance force left at the free nodes [N]."""
+    unknowns: np.ndarray = None
+    """The free unknowns (coordinates and edge rotations) of this equilibrium."""
+
+
+class PathError(RuntimeError):
+    """The path solver could not find the next equilibrium, even with its smallest step."""
+
+    def __init__(self, message, points=()):
+        super().__init__(message)
+        self.points = list(points)
+        """The equilibria found before the solver stopped."""
+
+
+def trace_path(sheet, volume_step_m3, stop, max_steps=400, tolerance=1e-8,
+               min_step_fraction=1.0 / 64.0, max_iterations=25):
+    """Follow the sheet's equilibrium from flat under rising cushion volume.
+
+    Parameters
+    ----------
+    sheet : Sheet
+    volume_step_m3 : float
+        Nominal volume increment per step [m3]; halved when Newton fails (down to
+        ``min_step_fraction`` of it) and restored after easy steps.
+    stop : callable
+        ``stop(point) -> bool``; the path ends after the first point for which it is True.
+    tolerance : float
+        Newton stops when the largest out-of-balance force is below ``tolerance`` times the
+        largest load component [-] and the volume is met to ``tolerance`` of the step.
+
+    Returns
+    -------
+    list of PathPoint
+        The flat start (pressure 0) and every converged step.
+    """
+    system = SheetSystem(sheet)
+    values = system.reference[system.free].copy()
+    positions = system.positions(values)
+    volume = system.volume_m3(values)
+    points = [PathPoint(0.0, volume, positions, 0.0, 0.0, 0, 0.0, values)]
+    pressure = 0.0
+    step = volume_step_m3
+    previous = None
+    while len(points) <= max_steps:
+        target = volume + step
+        guess_values, guess_pressure = values, pressure
+        if previous is not None:
+            # Extrapolate along the last step, scaled to this one.
+            ratio = step / previous[2]
+            guess_values = values + ratio * (values - previous[0])
+            guess_pressure = pressure + ratio * (pressure - previous[1])
+        result = _newton(system, guess_values, guess_pressure, target, tolerance,
+                         max_iterations, step)
+        if result is None:
+            step /= 2.0
+            if step < volume_step_m3 * min_step_fraction:
+                raise PathError(f'no equilibrium found beyond {volume * 1e3:.4g} L at '
+                                f'{pressure:.4g} Pa, even with a step of {step * 1e3:.3g} L',
+                                points)
+            continue
+        new_values, new_pressure, iterations, residual = result
+        previous = (values, pressure, step)
+        values, pressure, volume = new_values, new_pressure, target
+        positions = system.positions(values)
+        membrane, bending = system.energies_j(values)
+        point = PathPoint(pressure, volume, positions, membrane, bending, iterations, residual,
+                          values)
+        points.append(point)
+        if stop(point):
+            break
+        if iterations <= 4 and step < volume_step_m3:
+            step = min(2.0 * step, volume_step_m3)
+    return points
+
+
+def _newton(system, values, pressure, target, tolerance, max_iterations, step):
+    """Newton's method on the bordered system; None when it does not converge."""
+    extent = system.extent_m
+    for iteration in range(1, max_iterations + 1):
+        energy_gradient, volume_gradient = system.gradients(values)
+        residual = energy_gradient - pressure * volume_gradient
+        volume_error = system.volume_m3(values) - target
+        if not np.all(np.isfinite(residual)):
+            return None
+        try:
+            factor = splu(system.hessians(values, pressure))
+        except RuntimeError:
+            return None
+        # Block elimination of the bordered system: du = a + dp b, g_V . du = -volume_error.
+        free_step = factor.solve(-residual)
+        load_step = factor.solve(volume_gradient)
+        denominator = volume_gradient @ load_step
+        if not np.isfinite(denominator) or denominator == 0.0:
+            return None
+        pressure_step = (-volume_error - volume_gradient @ free_step) / denominator
+        step_values = free_step + pressure_step * load_step
+        if not np.all(np.isfinite(step_values)):
+            return None
+        values = values + step_values
+        pressure = pressure + pressure_step
+        moved = np.max(np.abs(step_values))
+        if (moved <= tolerance * 1e-2 * extent
+                and abs(pressure_step) <= tolerance * max(abs(pressure), 1e-6)):
+            energy_gradient, volume_gradient = system.gradients(values)
+            left = np.max(np.abs(energy_gradient - pressure * volume_gradient))
+            return values, pressure, iteration, float(left)
+    return None
+
+
+@dataclass(frozen=True)
+class PrescribedEquilibrium:
+    """An equilibrium with some coordinates held at given values and no cushion load."""
+
+    positions_m: np.ndarray
+    """Node positions ``(n, 3)`` [m]."""
+    reactions_n: np.ndarray
+    """Forces ``(n, 3)`` the supports put on the nodes [N]; zero at free coordinates."""
+    membrane_energy_j: float
+    """Membrane strain energy [J]."""
+    bending_energy_j: float
+    """Bending strain energy [J]."""
+    iterations: int
+    """Newton iterations."""
+    curvatures_per_m: np.ndarray
+    """Principal curvatures of every face ``(m, 2)`` [1/m]."""
+
+
+def solve_prescribed(sheet, held_positions_m, guess_positions_m, tolerance=1e-10,
+                     max_iterations=50):
+    """Find the equilibrium with the sheet's held coordinates at ``held_positions_m``.
+
+    Parameters
+    ----------
+    sheet : Sheet
+    held_positions_m : ndarray, shape (n, 3)
+        Values of the held coordinates (``sheet.fixed``) [m]; the others are ignored.
+    guess_positions_m : ndarray, shape (n, 3)
+        Start of Newton's method [m]; it picks the branch of a buckled sheet.
+
+    Raises
+    ------
+    PathError
+        When Newton's method does not converge.
+    """
+    system = SheetSystem(sheet)
+    held = np.asarray(held_positions_m, dtype=np.float64).ravel()
+    position_dofs = 3 * sheet.node_count
+    system.reference[:position_dofs] = np.where(np.asarray(sheet.fixed).ravel(), held,
+                                                system.reference[:position_dofs])
+    start = system.reference.copy()
+    start[:position_dofs] = np.asarray(guess_positions_m, dtype=np.float64).ravel()
+    values = start[system.free]
+    for iteration in range(1, max_iterations + 1):
+        gradient, _ = system.gradients(values)
+        step = splu(system.hessians(values, 0.0)).solve(-gradient)
+        values = values + step
+        if np.max(np.abs(step[system.free < position_dofs])) <= tolerance * system.extent_m:
+            break
+    else:
+        raise PathError(f'no equilibrium found in {max_iterations} Newton iterations')
+    unknowns = system.full(values)
+    full_gradient = np.zeros(system.size_all)
+    for group in system._groups[:2]:
+        local = group.function(unknowns[group.dofs])
+        full_gradient += np.bincount(group.dofs.ravel(), weights=local.ravel(),
+                                     minlength=system.size_all)
+    reactions = np.where(np.asarray(sheet.fixed).ravel(), full_gradient[:position_dofs], 0.0)
+    membrane, bending = system.energies_j(values)
+    return PrescribedEquilibrium(system.positions(values), reactions.reshape(-1, 3), membrane,
+                                 bending, iteration, system.curvatures_per_m(values))

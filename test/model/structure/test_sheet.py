@@ -1,0 +1,162 @@
+"""The structural sheet against beam theory, the elastica and its own energy balance."""
+
+import numpy as np
+import pytest
+from scipy.spatial import Delaunay
+from scipy.special import ellipk
+
+from flectofold_model.kinematics import elastica
+from flectofold_model.structure import elements, Sheet, solve_prescribed, trace_path
+from flectofold_model.structure.shell import MidEdgeBending
+
+YOUNGS_PA = 20e9
+THICKNESS_M = 0.004
+
+
+def strip_mesh(length_m, width_m, size_m, jitter=0.0, seed=0):
+    """Near-equilateral triangles in rows along x; ``jitter`` moves inner nodes at random."""
+    columns = int(round(length_m / size_m))
+    rows = max(1, int(round(width_m / (size_m * np.sqrt(3) / 2))))
+    points = []
+    for row in range(rows + 1):
+        y = -width_m / 2 + width_m * row / rows
+        if row % 2:
+            xs = np.r_[-length_m / 2, -length_m / 2 + length_m * (np.arange(columns) + 0.5)
+                       / columns, length_m / 2]
+        else:
+            xs = np.linspace(-length_m / 2, length_m / 2, columns + 1)
+        points += [(x, y) for x in xs]
+    points = np.array(points)
+    inner = ((np.abs(np.abs(points[:, 0]) - length_m / 2) > 1e-9)
+             & (np.abs(np.abs(points[:, 1]) - width_m / 2) > 1e-9))
+    points[inner] += jitter * size_m * np.random.default_rng(seed).uniform(
+        -1, 1, (inner.sum(), 2))
+    faces = Delaunay(points).simplices
+    corners = points[faces]
+    area = ((corners[:, 1, 0] - corners[:, 0, 0]) * (corners[:, 2, 1] - corners[:, 0, 1])
+            - (corners[:, 2, 0] - corners[:, 0, 0]) * (corners[:, 1, 1] - corners[:, 0, 1]))
+    return points, np.where((area < 0)[:, None], faces[:, [0, 2, 1]], faces)
+
+
+def strip_sheet(points, faces, poisson=0.0, roller_slides=True, loaded=True):
+    """Build a strip pinned along x = -L/2 and held along x = +L/2 (sliding if asked)."""
+    count = len(faces)
+    fixed = np.zeros((len(points), 3), dtype=bool)
+    left = np.isclose(points[:, 0], points[:, 0].min())
+    right = np.isclose(points[:, 0], points[:, 0].max())
+    fixed[left] = True
+    fixed[right, 0 if not roller_slides else 1:] = True
+    return Sheet(points, faces, np.full(count, THICKNESS_M), np.full(count, YOUNGS_PA),
+                 np.full(count, poisson), fixed, np.full(count, loaded), -0.005), right
+
+
+def central_difference(function, corners, step=1e-6):
+    gradient = np.zeros_like(corners)
+    for index in np.ndindex(corners.shape[1:]):
+        plus, minus = corners.copy(), corners.copy()
+        plus[(slice(None),) + index] += step
+        minus[(slice(None),) + index] -= step
+        gradient[(slice(None),) + index] = (function(plus) - function(minus)) / (2 * step)
+    return gradient
+
+
+def test_the_analytic_element_gradients_match_central_differences():
+    rng = np.random.default_rng(3)
+    hinge = (np.array([[0, 0, 0], [1, 0, 0], [0.4, 1, 0.2], [0.6, -1, 0.3]], float)
+             + rng.normal(0, 0.05, (6, 4, 3)))
+    assert np.allclose(elements.dihedral_gradient(hinge),
+                       central_difference(elements.dihedral_angle, hinge), atol=1e-8)
+    flat = np.array([[0, 0], [1, 0], [0, 1]], float)[None].repeat(6, 0)
+    inverse, area = elements.membrane_reference(flat)
+    corners = np.concatenate([flat, np.zeros((6, 3, 1))], -1) + rng.normal(0, 0.05, (6, 3, 3))
+    modulus, poisson = np.full(6, 1e3), np.full(6, 0.3)
+    analytic = elements.membrane_gradient(corners, inverse, area, modulus, poisson)
+    numeric = central_difference(
+        lambda c: elements.membrane_energy(c, inverse, area, modulus, poisson), corners)
+    assert np.max(np.abs(analytic - numeric)) < 1e-7 * np.max(np.abs(analytic))
+    assert np.allclose(elements.prism_gradient(corners, -0.1),
+                       central_difference(lambda c: elements.prism_volume(c, -0.1), corners),
+                       atol=1e-9)
+    points, faces = strip_mesh(0.3, 0.2, 0.1, jitter=0.2)
+    bending = MidEdgeBending(points, faces, np.full(len(faces), 2.0), np.full(len(faces), 0.2))
+    local = np.concatenate([
+        np.concatenate([points, np.zeros((len(points), 1))], 1)[bending.stencil]
+        .reshape(len(faces), 18), np.zeros((len(faces), 3))], 1)
+    local += rng.normal(0, 0.02, local.shape)
+    numeric = central_difference(bending.local_energy, local)
+    assert np.allclose(bending.local_gradient(local), numeric, atol=1e-7)
+
+
+@pytest.mark.parametrize('jitter', [0.0, 0.25])
+def test_a_simply_supported_strip_deflects_as_beam_theory_under_a_small_pressure(jitter):
+    length = 1.0
+    points, faces = strip_mesh(length, 0.2, 0.025, jitter=jitter)
+    sheet, _ = strip_sheet(points, faces)
+    point = trace_path(sheet, 1e-6, lambda point: True, max_steps=1)[-1]
+    centre = np.argmin(np.hypot(points[:, 0], points[:, 1]))
+    stiffness = YOUNGS_PA * THICKNESS_M**3 / 12
+    along = points[centre, 0] + length / 2
+    beam = (point.pressure_pa * along * (length**3 - 2 * length * along**2 + along**3)
+            / (24 * stiffness))
+    assert point.positions_m[centre, 2] == pytest.approx(beam, rel=0.01)
+    assert beam > 0.0
+
+
+@pytest.mark.parametrize('jitter', [0.0, 0.25])
+def test_a_strip_pushed_together_between_pins_is_the_closed_form_elastica(jitter):
+    length, width = 1.0, 0.05
+    points, faces = strip_mesh(length, width, 0.0125, jitter=jitter)
+    sheet, right = strip_sheet(points, faces, roller_slides=False, loaded=False)
+    modulus = np.sin(np.radians(30.0) / 2)
+    shortening = float(elastica.shortening_from_k(modulus, length))
+    sag = float(elastica.sag_from_k(modulus, length))
+    held = np.column_stack([points, np.zeros(len(points))])
+    held[right, 0] -= shortening
+    shape = elastica.elastica_shape(modulus, length, points[:, 0])
+    guess = held.copy()
+    guess[:, 0] = shape.x_m - shape.x_m.min() - length / 2
+    guess[:, 2] = shape.z_m
+    result = solve_prescribed(sheet, held, guess)
+    middle = np.abs(points[:, 0]) < 1e-9 if jitter == 0 else np.abs(points[:, 0]) < 0.004
+    axial = -result.reactions_n[right, 0].sum()
+    bending = YOUNGS_PA * THICKNESS_M**3 / 12 * width
+    assert result.positions_m[middle, 2].mean() == pytest.approx(sag, rel=1e-3)
+    assert axial == pytest.approx(bending * (2 * ellipk(modulus**2) / length)**2, rel=1e-3)
+
+
+def test_the_pressure_work_equals_the_strain_energy_at_every_step_of_a_large_deflection():
+    points, faces = strip_mesh(1.0, 0.1, 0.025)
+    sheet, _ = strip_sheet(points, faces, poisson=0.13)
+    path = trace_path(sheet, 0.006 / 20, lambda point: point.volume_m3 >= 0.0065 - 1e-12,
+                      max_steps=60)
+    pressure = np.array([p.pressure_pa for p in path])
+    volume = np.array([p.volume_m3 for p in path])
+    energy = np.array([p.membrane_energy_j + p.bending_energy_j for p in path])
+    work = 0.5 * (pressure[1:] + pressure[:-1]) * np.diff(volume)
+    assert np.max(path[-1].positions_m[:, 2]) > 0.09
+    assert np.all(np.abs(work / np.diff(energy) - 1) < 1e-3)
+
+
+def test_a_sheet_refuses_laminates_and_triangles_that_cannot_exist():
+    points, faces = strip_mesh(0.3, 0.2, 0.1)
+    count = len(faces)
+    fixed = np.zeros((len(points), 3), dtype=bool)
+
+    def build(thickness=0.004, poisson=0.3, triangles=faces):
+        return Sheet(points, triangles, np.full(count, thickness), np.full(count, 2e10),
+                     np.full(count, poisson), fixed, np.zeros(count, bool), -0.005)
+
+    build(poisson=0.0)
+    build(poisson=0.4999)
+    with pytest.raises(ValueError, match='poisson_ratio'):
+        build(poisson=0.5)
+    with pytest.raises(ValueError, match='poisson_ratio'):
+        build(poisson=-1e-9)
+    with pytest.raises(ValueError, match='thickness_m'):
+        build(thickness=0.0)
+    with pytest.raises(ValueError, match='thickness_m'):
+        build(thickness=float('nan'))
+    flipped = faces.copy()
+    flipped[0] = flipped[0, [0, 2, 1]]
+    with pytest.raises(ValueError, match='orientation'):
+        build(triangles=flipped)
