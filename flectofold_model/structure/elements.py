@@ -63,6 +63,13 @@ def membrane_gradient(corners, inverse, area, modulus_n_per_m, poisson):
     return gradient
 
 
+def membrane_principal_strain(corners, inverse):
+    """Principal Green-Lagrange strains ``(m, 2)`` of triangles, largest magnitude first."""
+    values = np.linalg.eigvalsh(_green_strain(corners, inverse))
+    order = np.argsort(-np.abs(values), axis=1)
+    return np.take_along_axis(values, order, axis=1)
+
+
 def _deformation(corners, inverse):
     edges = np.stack([corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]], axis=-1)
     return edges @ inverse
@@ -82,7 +89,7 @@ def dihedral_angle(corners):
     """
     edge, normal_a, normal_b = _hinge_vectors(corners)
     length = np.linalg.norm(edge, axis=-1)
-    sine = np.einsum('mi,mi->m', np.cross(normal_a, normal_b), edge) / length
+    sine = np.einsum('mi,mi->m', cross_rows(normal_a, normal_b), edge) / length
     cosine = np.einsum('mi,mi->m', normal_a, normal_b)
     return np.arctan2(sine, cosine)
 
@@ -106,8 +113,8 @@ def dihedral_gradient(corners):
 
 def _hinge_vectors(corners):
     edge = corners[:, 1] - corners[:, 0]
-    normal_a = np.cross(edge, corners[:, 2] - corners[:, 0])
-    normal_b = np.cross(corners[:, 3] - corners[:, 0], edge)
+    normal_a = cross_rows(edge, corners[:, 2] - corners[:, 0])
+    normal_b = cross_rows(corners[:, 3] - corners[:, 0], edge)
     return edge, normal_a, normal_b
 
 
@@ -149,3 +156,10 @@ def finite_difference_hessian(gradient, local, step=HESSIAN_STEP_M):
         minus[:, column] -= step
         hessian[:, :, column] = (gradient(plus) - gradient(minus)) / (2.0 * step)
     return 0.5 * (hessian + np.swapaxes(hessian, 1, 2))
+
+
+def cross_rows(a, b):
+    """Row-wise cross product of ``(m, 3)`` arrays (``np.cross`` without its axis handling)."""
+    return np.stack([a[:, 1] * b[:, 2] - a[:, 2] * b[:, 1],
+                     a[:, 2] * b[:, 0] - a[:, 0] * b[:, 2],
+                     a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]], axis=1)

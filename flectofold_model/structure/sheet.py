@@ -19,6 +19,10 @@ from flectofold_model.structure import elements
 from flectofold_model.structure.shell import MidEdgeBending
 
 
+#: Largest ratio of successive out-of-balance forces for which the factorised tangent is kept.
+REFACTOR_CONTRACTION = 0.2
+
+
 @dataclass(frozen=True)
 class Sheet:
     """A flat triangulated sheet with its laminates, supports and cushion footprint."""
@@ -41,6 +45,12 @@ class Sheet:
     """Height of the plane that holds the cushion's back [m] (below the sheet: negative)."""
     zone: np.ndarray = None
     """Optional label per triangle ``(m,)`` (e.g. 0 mid-rib, 1 hinge, 2 flap)."""
+    rest_tilt_sine: np.ndarray = None
+    """Sines of the director tilts of the stress-free (moulded) shape ``(m, 3)``; None: the
+    sheet is stress-free flat (see :mod:`.shell`)."""
+    rest_positions_m: np.ndarray = None
+    """Node positions ``(n, 3)`` of the moulded shape whose triangles are the membrane's
+    stress-free shapes; None: the flat pattern."""
 
     def __post_init__(self):
         xy = np.asarray(self.reference_xy_m, dtype=np.float64)
@@ -62,6 +72,14 @@ class Sheet:
             raise ValueError('fixed must have shape (n, 3)')
         if np.asarray(self.loaded).shape != (count,):
             raise ValueError('loaded must have one flag per triangle')
+        if self.rest_tilt_sine is not None:
+            rest = np.asarray(self.rest_tilt_sine, dtype=np.float64)
+            if rest.shape != (count, 3) or not np.all(np.abs(rest) <= 1.0):
+                raise ValueError('rest_tilt_sine must be sines in [-1, 1], three per triangle')
+        if self.rest_positions_m is not None:
+            moulded = np.asarray(self.rest_positions_m, dtype=np.float64)
+            if moulded.shape != (len(xy), 3) or not np.all(np.isfinite(moulded)):
+                raise ValueError('rest_positions_m must be finite with shape (n, 3)')
         _check_manifold(triangles)
 
     @property
@@ -97,8 +115,24 @@ def _check_manifold(triangles):
 
 
 def membrane_data(sheet):
-    """Inverse reference edge matrices and areas of the sheet's triangles."""
-    return elements.membrane_reference(sheet.reference_xy_m[sheet.triangles])
+    """Inverse reference edge matrices and areas of the sheet's triangles.
+
+    The stress-free shape of each triangle is its flat pattern, or, for a moulded sheet
+    (``rest_positions_m``), its moulded shape laid into its own plane.
+    """
+    if sheet.rest_positions_m is None:
+        return elements.membrane_reference(sheet.reference_xy_m[sheet.triangles])
+    corners = np.asarray(sheet.rest_positions_m, dtype=np.float64)[sheet.triangles]
+    first = corners[:, 1] - corners[:, 0]
+    second = corners[:, 2] - corners[:, 0]
+    length = np.linalg.norm(first, axis=1)
+    along = np.einsum('mi,mi->m', second, first) / length
+    across = np.linalg.norm(elements.cross_rows(first, second), axis=1) / length
+    local = np.zeros(corners.shape[:2] + (2,))
+    local[:, 1, 0] = length
+    local[:, 2, 0] = along
+    local[:, 2, 1] = across
+    return elements.membrane_reference(local)
 
 
 class SheetSystem:
@@ -114,7 +148,8 @@ class SheetSystem:
         self.membrane_modulus = (sheet.youngs_modulus_pa * sheet.thickness_m
                                  / (1.0 - sheet.poisson_ratio**2))
         self.bending = MidEdgeBending(sheet.reference_xy_m, sheet.triangles,
-                                      sheet.plate_stiffness_nm, sheet.poisson_ratio)
+                                      sheet.plate_stiffness_nm, sheet.poisson_ratio,
+                                      sheet.rest_tilt_sine)
         self.bending.set_shape_basis(sheet.reference_xy_m)
         self.loaded_triangles = sheet.triangles[np.asarray(sheet.loaded, dtype=bool)]
         nodes = sheet.node_count
@@ -137,7 +172,8 @@ class SheetSystem:
                                        position_dofs + self.bending.edges], axis=1)
         self._groups = [
             _Group(node_dofs(sheet.triangles), reduced, self._membrane_gradient, 1),
-            _Group(bending_dofs, reduced, self.bending.local_gradient, 1),
+            _Group(bending_dofs, reduced, self.bending.local_gradient, 1,
+                   self.bending.local_hessian),
             _Group(node_dofs(self.loaded_triangles), reduced, self._prism_gradient, 0),
         ]
         rows = np.concatenate([g.rows for g in self._groups])
@@ -168,9 +204,23 @@ class SheetSystem:
         bending = self.bending.local_energy(unknowns[self._groups[1].dofs])
         return float(membrane.sum()), float(bending.sum())
 
-    def curvatures_per_m(self, free_values):
-        """Principal curvatures of every face ``(m, 2)`` [1/m], largest magnitude first."""
-        return self.bending.curvature_per_m(self.full(free_values)[self._groups[1].dofs])
+    def curvatures_per_m(self, free_values, from_rest=False):
+        """Principal curvatures of every face ``(m, 2)`` [1/m], largest magnitude first.
+
+        With ``from_rest`` the change from the stress-free shape, which strains the laminate.
+        """
+        return self.bending.curvature_per_m(self.full(free_values)[self._groups[1].dofs],
+                                            from_rest)
+
+    def membrane_strains(self, free_values):
+        """Principal membrane strains of every face ``(m, 2)``, largest magnitude first."""
+        positions = self.positions(free_values)
+        return elements.membrane_principal_strain(positions[self.sheet.triangles],
+                                                  self.inverse)
+
+    def tilt_sine(self, free_values):
+        """Sines of every face's director tilts ``(m, 3)`` (a moulded shape's rest tilts)."""
+        return self.bending.tilt_sine(self.full(free_values)[self._groups[1].dofs])
 
     def volume_m3(self, free_values):
         """Volume under the loaded triangles down to the base plane [m3]."""
@@ -205,7 +255,11 @@ class SheetSystem:
         unknowns = self.full(free_values)
         parts = []
         for group in self._groups:
-            local = elements.finite_difference_hessian(group.function, unknowns[group.dofs])
+            if group.hessian is None:
+                local = elements.finite_difference_hessian(group.function,
+                                                           unknowns[group.dofs])
+            else:
+                local = group.hessian(unknowns[group.dofs])
             scale = 1.0 if group.strain else -pressure_pa
             parts.append(scale * local[:, group.local_rows, group.local_cols][group.keep])
         data = np.bincount(self._slot, weights=np.concatenate(parts),
@@ -214,12 +268,32 @@ class SheetSystem:
                                      shape=(self._size, self._size)))
 
 
+def factorise(matrix):
+    """Sparse LU of a symmetric tangent: symmetric mode first, partial pivoting if it fails.
+
+    The symmetric mode (minimum degree on ``A + A^T``, diagonal pivots) keeps the fill-in of
+    the sheet's tangent about a third of column ordering's and factorises four times faster;
+    when a diagonal pivot vanishes (a tangent that is singular there) SuperLU's default
+    partial pivoting is tried before giving up.
+    """
+    try:
+        factor = splu(matrix, permc_spec='MMD_AT_PLUS_A', diag_pivot_thresh=0.0,
+                      options={'SymmetricMode': True})
+        probe = np.ones(matrix.shape[0])
+        if np.all(np.isfinite(factor.solve(probe))):
+            return factor
+    except RuntimeError:
+        pass
+    return splu(matrix)
+
+
 class _Group:
     """One element kind: its unknowns, its gradient and where its Hessian entries go."""
 
-    def __init__(self, dofs, reduced, function, strain):
+    def __init__(self, dofs, reduced, function, strain, hessian=None):
         self.dofs = dofs
         self.function = function
+        self.hessian = hessian
         self.strain = bool(strain)
         per = dofs.shape[1]
         local = np.arange(per)
@@ -251,6 +325,48 @@ class PathPoint:
     """Largest out-of-balance force left at the free nodes [N]."""
     unknowns: np.ndarray = None
     """The free unknowns (coordinates and edge rotations) of this equilibrium."""
+    stable_at_pressure: bool = None
+    """True where the tangent is positive definite: stable with the pressure held (a
+    pressure regulator); None where its inertia could not be read."""
+    stable_at_volume: bool = None
+    """True where the tangent is positive definite on the fixed-volume directions: stable
+    with the air in the cushion held (closed valves); None where unknown."""
+
+
+def tangent_inertia(system, values, pressure):
+    """Negative eigenvalues of the tangent ``H - p H_V`` and ``g_V^T (H - p H_V)^-1 g_V``.
+
+    From a symmetric-mode factorisation ``P H P^T = L D L^T`` (``D`` the diagonal of ``U``),
+    whose signs are those of the eigenvalues (Sylvester's law of inertia). None when that
+    factorisation needed pivoting or failed.
+    """
+    matrix = system.hessians(values, pressure)
+    try:
+        factor = splu(matrix, permc_spec='MMD_AT_PLUS_A', diag_pivot_thresh=0.0,
+                      options={'SymmetricMode': True})
+    except RuntimeError:
+        return None
+    if not np.array_equal(factor.perm_r, factor.perm_c):
+        return None
+    _, volume_gradient = system.gradients(values)
+    curvature = volume_gradient @ factor.solve(volume_gradient)
+    if not np.isfinite(curvature):
+        return None
+    return int(np.count_nonzero(factor.U.diagonal() < 0.0)), float(curvature)
+
+
+def _stability(system, values, pressure):
+    """``(stable_at_pressure, stable_at_volume)`` from the inertia of the tangent.
+
+    With the volume held, the bordered tangent has one negative eigenvalue from the constraint
+    plus ``neg(H) - 1`` when ``g_V^T H^-1 g_V < 0`` (Haynsworth), so it is stable when
+    ``neg(H) + [g_V^T H^-1 g_V > 0] == 1``; with the pressure held, when ``neg(H) == 0``.
+    """
+    inertia = tangent_inertia(system, values, pressure)
+    if inertia is None:
+        return None, None
+    negative, curvature = inertia
+    return negative == 0, negative + int(curvature > 0.0) == 1
 
 
 class PathError(RuntimeError):
@@ -263,7 +379,7 @@ class PathError(RuntimeError):
 
 
 def trace_path(sheet, volume_step_m3, stop, max_steps=400, tolerance=1e-8,
-               min_step_fraction=1.0 / 64.0, max_iterations=25):
+               min_step_fraction=1.0 / 64.0, max_iterations=40, start=None):
     """Follow the sheet's equilibrium from flat under rising cushion volume.
 
     Parameters
@@ -277,17 +393,26 @@ def trace_path(sheet, volume_step_m3, stop, max_steps=400, tolerance=1e-8,
     tolerance : float
         Newton stops when the largest out-of-balance force is below ``tolerance`` times the
         largest load component [-] and the volume is met to ``tolerance`` of the step.
+    start : ndarray, optional
+        Free unknowns of an unloaded equilibrium to start from (a moulded shape); default
+        the flat reference.
 
     Returns
     -------
     list of PathPoint
-        The flat start (pressure 0) and every converged step.
+        The start (pressure 0) and every converged step. Each point says whether it is stable
+        under pressure control and under volume control (from the inertia of its tangent), so
+        a pressure maximum (a limit point: snap-through at a set pressure) and a loss of
+        stability at a set volume (a bifurcation) show in the path.
     """
     system = SheetSystem(sheet)
-    values = system.reference[system.free].copy()
+    values = (system.reference[system.free].copy() if start is None
+              else np.asarray(start, dtype=np.float64).copy())
     positions = system.positions(values)
     volume = system.volume_m3(values)
-    points = [PathPoint(0.0, volume, positions, 0.0, 0.0, 0, 0.0, values)]
+    membrane, bending = system.energies_j(values)
+    points = [PathPoint(0.0, volume, positions, membrane, bending, 0, 0.0, values,
+                        *_stability(system, values, 0.0))]
     pressure = 0.0
     step = volume_step_m3
     previous = None
@@ -314,28 +439,37 @@ def trace_path(sheet, volume_step_m3, stop, max_steps=400, tolerance=1e-8,
         positions = system.positions(values)
         membrane, bending = system.energies_j(values)
         point = PathPoint(pressure, volume, positions, membrane, bending, iterations, residual,
-                          values)
+                          values, *_stability(system, values, pressure))
         points.append(point)
         if stop(point):
             break
-        if iterations <= 4 and step < volume_step_m3:
+        if iterations <= 8 and step < volume_step_m3:
             step = min(2.0 * step, volume_step_m3)
     return points
 
 
 def _newton(system, values, pressure, target, tolerance, max_iterations, step):
-    """Newton's method on the bordered system; None when it does not converge."""
+    """Newton's method on the bordered system; None when it does not converge.
+
+    The tangent is factorised at the first iteration and kept while each iteration cuts the
+    out-of-balance force to at most :data:`REFACTOR_CONTRACTION` of the one before (the chord
+    method: the element Hessians cost ten times a gradient); otherwise it is refactorised at
+    the current point, which is Newton's method.
+    """
     extent = system.extent_m
+    factor, last_left = None, np.inf
     for iteration in range(1, max_iterations + 1):
         energy_gradient, volume_gradient = system.gradients(values)
         residual = energy_gradient - pressure * volume_gradient
         volume_error = system.volume_m3(values) - target
         if not np.all(np.isfinite(residual)):
             return None
-        try:
-            factor = splu(system.hessians(values, pressure))
-        except RuntimeError:
-            return None
+        left = np.max(np.abs(residual))
+        if factor is None or left > REFACTOR_CONTRACTION * last_left:
+            try:
+                factor = factorise(system.hessians(values, pressure))
+            except RuntimeError:
+                return None
         # Block elimination of the bordered system: du = a + dp b, g_V . du = -volume_error.
         free_step = factor.solve(-residual)
         load_step = factor.solve(volume_gradient)
@@ -354,6 +488,7 @@ def _newton(system, values, pressure, target, tolerance, max_iterations, step):
             energy_gradient, volume_gradient = system.gradients(values)
             left = np.max(np.abs(energy_gradient - pressure * volume_gradient))
             return values, pressure, iteration, float(left)
+        last_left = left
     return None
 
 
@@ -373,10 +508,15 @@ class PrescribedEquilibrium:
     """Newton iterations."""
     curvatures_per_m: np.ndarray
     """Principal curvatures of every face ``(m, 2)`` [1/m]."""
+    unknowns: np.ndarray = None
+    """The free unknowns (coordinates and edge rotations) of this equilibrium."""
+    tilt_sine: np.ndarray = None
+    """Sines of every face's director tilts ``(m, 3)``: the rest tilts of a sheet moulded in
+    this shape."""
 
 
 def solve_prescribed(sheet, held_positions_m, guess_positions_m, tolerance=1e-10,
-                     max_iterations=50):
+                     max_iterations=50, guess_unknowns=None):
     """Find the equilibrium with the sheet's held coordinates at ``held_positions_m``.
 
     Parameters
@@ -386,6 +526,9 @@ def solve_prescribed(sheet, held_positions_m, guess_positions_m, tolerance=1e-10
         Values of the held coordinates (``sheet.fixed``) [m]; the others are ignored.
     guess_positions_m : ndarray, shape (n, 3)
         Start of Newton's method [m]; it picks the branch of a buckled sheet.
+    guess_unknowns : ndarray, optional
+        A start with the edge rotations too (the ``unknowns`` of an earlier equilibrium);
+        it takes the place of ``guess_positions_m``.
 
     Raises
     ------
@@ -399,12 +542,16 @@ def solve_prescribed(sheet, held_positions_m, guess_positions_m, tolerance=1e-10
                                                 system.reference[:position_dofs])
     start = system.reference.copy()
     start[:position_dofs] = np.asarray(guess_positions_m, dtype=np.float64).ravel()
-    values = start[system.free]
+    values = (start[system.free] if guess_unknowns is None
+              else np.asarray(guess_unknowns, dtype=np.float64).copy())
     for iteration in range(1, max_iterations + 1):
         gradient, _ = system.gradients(values)
-        step = splu(system.hessians(values, 0.0)).solve(-gradient)
+        step = factorise(system.hessians(values, 0.0)).solve(-gradient)
         values = values + step
-        if np.max(np.abs(step[system.free < position_dofs])) <= tolerance * system.extent_m:
+        moves = step[system.free < position_dofs]
+        # With every coordinate held only the edge rotations [rad] move.
+        if (np.max(np.abs(moves)) <= tolerance * system.extent_m if moves.size
+                else np.max(np.abs(step)) <= tolerance):
             break
     else:
         raise PathError(f'no equilibrium found in {max_iterations} Newton iterations')
@@ -417,4 +564,5 @@ def solve_prescribed(sheet, held_positions_m, guess_positions_m, tolerance=1e-10
     reactions = np.where(np.asarray(sheet.fixed).ravel(), full_gradient[:position_dofs], 0.0)
     membrane, bending = system.energies_j(values)
     return PrescribedEquilibrium(system.positions(values), reactions.reshape(-1, 3), membrane,
-                                 bending, iteration, system.curvatures_per_m(values))
+                                 bending, iteration, system.curvatures_per_m(values), values,
+                                 system.tilt_sine(values))

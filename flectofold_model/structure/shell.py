@@ -22,7 +22,9 @@ moment because their ``psi`` is free, and the face's curvature gives the surface
 
 The edge vectors enter through their reference values, so the plate energy is exact for
 bending without stretch, which is what a GFRP sheet does (its membrane strains are of order
-1e-4); the membrane triangles carry the stretch.
+1e-4); the membrane triangles carry the stretch. A sheet moulded curved (a pre-folded hinge)
+has rest tilts ``beta0`` and the energy of ``sin(beta) - sin(beta0)``: its second fundamental
+form is measured from the moulded one, on the flat reference metric.
 """
 
 import numpy as np
@@ -38,8 +40,11 @@ class MidEdgeBending:
     18 coordinates in all, and the three edge rotations.
     """
 
-    def __init__(self, reference_xy_m, faces, plate_stiffness_nm, poisson_ratio):
+    def __init__(self, reference_xy_m, faces, plate_stiffness_nm, poisson_ratio,
+                 rest_sine=None):
         faces = np.asarray(faces, dtype=np.int64)
+        self.rest_sine = (np.zeros(faces.shape) if rest_sine is None
+                          else np.asarray(rest_sine, dtype=np.float64))
         self.faces = faces
         count = len(faces)
         opposite_start = faces[:, [1, 2, 0]]
@@ -79,13 +84,13 @@ class MidEdgeBending:
     def local_energy(self, local):
         """Bending energy per face ``(m,)`` [J] of local unknowns ``(m, 21)``."""
         beta, _, _ = self._tilts(local)
-        sine = np.sin(beta)
+        sine = np.sin(beta) - self.rest_sine
         return np.einsum('mi,mij,mj->m', sine, self.quadratic, sine)
 
     def local_gradient(self, local):
         """Gradient of :meth:`local_energy` with respect to the local unknowns ``(m, 21)``."""
         beta, angle_gradient, _ = self._tilts(local)
-        sine = np.sin(beta)
+        sine = np.sin(beta) - self.rest_sine
         d_beta = 2.0 * np.einsum('mij,mj->mi', self.quadratic, sine) * np.cos(beta)
         gradient = np.zeros_like(local)
         positions = gradient[:, :18].reshape(-1, 6, 3)
@@ -95,6 +100,43 @@ class MidEdgeBending:
                 positions[:, slot] += (0.5 * d_beta[:, i])[:, None] * angle_gradient[i][:, part]
         gradient[:, 18:] = d_beta * self.side
         return gradient
+
+    def local_hessian(self, local):
+        """Hessian of :meth:`local_energy` ``(m, 21, 21)``.
+
+        ``E = s^T M s`` with ``s = sin(beta) - sin(beta0)``: the chain rule gives
+        ``2 ds^T M ds + sum_i mu_i (cos(beta_i) d2beta_i - sin(beta_i) dbeta_i dbeta_i^T)``,
+        ``mu = 2 M s``; the dihedral angles' own second derivatives ``d2beta_i`` (half the
+        dihedral's) are central differences of their closed-form gradients.
+        """
+        beta, angle_gradient, _ = self._tilts(local)
+        sine = np.sin(beta) - self.rest_sine
+        moment = 2.0 * np.einsum('mij,mj->mi', self.quadratic, sine)
+        count = len(local)
+        d_beta = np.zeros((count, 3, 21))
+        slots = []
+        for i in range(3):
+            columns = np.concatenate([np.arange(3 * slot, 3 * slot + 3)
+                                      for slot in ((i + 1) % 3, (i + 2) % 3, i, 3 + i)])
+            slots.append(columns)
+            d_beta[:, i, columns] = 0.5 * angle_gradient[i].reshape(count, 12)
+            d_beta[:, i, 18 + i] = self.side[:, i]
+        d_sine = np.cos(beta)[:, :, None] * d_beta
+        hessian = 2.0 * np.einsum('mia,mij,mjb->mab', d_sine, self.quadratic, d_sine)
+        hessian -= np.einsum('mi,mia,mib->mab', moment * np.sin(beta), d_beta, d_beta)
+        corners = local[:, :18].reshape(-1, 6, 3)
+        weight = 0.5 * moment * np.cos(beta)
+        for i in range(3):
+            mask = self.interior[:, i]
+            if not np.any(mask):
+                continue
+            hinge = corners[mask][:, [(i + 1) % 3, (i + 2) % 3, i, 3 + i]].reshape(-1, 12)
+            second = elements.finite_difference_hessian(
+                lambda flat: elements.dihedral_gradient(flat.reshape(-1, 4, 3)).reshape(-1, 12),
+                hinge)
+            block = np.ix_(np.flatnonzero(mask), slots[i], slots[i])
+            hessian[block] += weight[mask, i][:, None, None] * second
+        return hessian
 
     def _tilts(self, local):
         corners = local[:, :18].reshape(-1, 6, 3)
@@ -114,10 +156,18 @@ class MidEdgeBending:
         beta = 0.5 * angles + self.side * psi
         return beta, angle_gradient, angles
 
-    def curvature_per_m(self, local):
-        """Principal curvatures ``(m, 2)`` [1/m] of each face, largest magnitude first."""
-        beta, _, _ = self._tilts(local)
-        shape = np.einsum('mi,mijk->mjk', np.sin(beta), self._shape_basis)
+    def tilt_sine(self, local):
+        """Sines of the director tilts ``(m, 3)`` of local unknowns ``(m, 21)``."""
+        return np.sin(self._tilts(local)[0])
+
+    def curvature_per_m(self, local, from_rest=False):
+        """Principal curvatures ``(m, 2)`` [1/m] of each face, largest magnitude first.
+
+        With ``from_rest`` the change of curvature from the stress-free state, which is what
+        strains the laminate.
+        """
+        sine = self.tilt_sine(local) - (self.rest_sine if from_rest else 0.0)
+        shape = np.einsum('mi,mijk->mjk', sine, self._shape_basis)
         values = np.linalg.eigvals(shape).real
         order = np.argsort(-np.abs(values), axis=1)
         return np.take_along_axis(values, order, axis=1)

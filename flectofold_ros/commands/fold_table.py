@@ -13,14 +13,18 @@ import numpy as np
 from flectofold_model import DEMONSTRATOR_MODULE, FoldModel, PanelBatch, PROTOTYPE
 from flectofold_model.actuation import actuated_like, DEMONSTRATOR_ACTUATED, StripCushion
 from flectofold_model.actuation.laminate import FATIGUE_ALLOWABLE_STRAIN
+from flectofold_model.actuation.statics import FLECTOLINE_ACTUATED
 from flectofold_model.actuation.strain import panel_strain, strain_exceedance
 from flectofold_model.kinematics import reflection
 from flectofold_model.kinematics.hexagon import HEXAGON_MODULE, HexagonBatch, HexagonFoldModel
 from flectofold_model.kinematics.hexagon.panel import HexagonPanel
+from flectofold_model.structure.comparison import kinematic_rows, structural_rows
+from flectofold_model.structure.panel import PanelMesh, structural_path
 from flectofold_ros.runner import run_command
 
 PANELS = {'demonstrator': DEMONSTRATOR_MODULE, 'prototype': PROTOTYPE,
-          'quad': DEMONSTRATOR_MODULE, 'hexagon': HEXAGON_MODULE}
+          'quad': DEMONSTRATOR_MODULE, 'hexagon': HEXAGON_MODULE,
+          'flectoline': FLECTOLINE_ACTUATED.geometry}
 
 #: (name, header format, cell format, meaning) of the strain columns both panel kinds print.
 STRAIN_COLUMNS = (
@@ -64,13 +68,16 @@ HEXAGON_COLUMNS = (
 def actuated_preset(panel):
     """Return the actuated panel whose laminates the table's strains use, for a geometry.
 
-    The demonstrator module gets ``DEMONSTRATOR_ACTUATED`` and a hexagonal panel the
-    hexagonal preset's build (``HEXAGON_ACTUATED``); any other quad panel (the prototype) the
+    The demonstrator module gets ``DEMONSTRATOR_ACTUATED``, the FlectoLine-like flap
+    ``FLECTOLINE_ACTUATED`` and a hexagonal panel the hexagonal preset's build
+    (``HEXAGON_ACTUATED``); any other quad panel (the prototype) the
     demonstrator's laminates with a cushion sized to it as in ``radius_study`` (80 % of the
     mid-rib wide and long; the cushion does not enter the strains).
     """
     if isinstance(panel, HexagonPanel) or panel == DEMONSTRATOR_MODULE:
         return actuated_like(panel)
+    if panel == FLECTOLINE_ACTUATED.geometry:
+        return FLECTOLINE_ACTUATED
     cushion = StripCushion(flat_width_m=0.8 * panel.midrib_width_m,
                            length_m=0.8 * panel.length_m, mount_gap_m=0.003)
     return actuated_like(panel, dataclasses.replace(DEMONSTRATOR_ACTUATED, cushion=cushion))
@@ -101,6 +108,76 @@ def fold_table(panel, steps):
     lines.append('fold: three-point-plane apex fold angle (the model); local law: '
                  '2 atan(kappa0 R), for comparison; amplification: tip travel / support travel')
     return lines + _strain_lines(actuated)
+
+
+#: (name, header format, cell format, meaning) of the structural table's columns.
+STRUCTURAL_COLUMNS = (
+    ('closure', '{:>7}', '{:7.2f}', '0 open (the pre-fold) ... 1 closed, by apex fold angle'),
+    ('fold [deg]', '{:>10}', '{:10.1f}', 'apex fold angle across the hinge band'),
+    ('at supports', '{:>11}', '{:11.1f}',
+     'fold angle across the hinge band next to the supports [deg] (structure)'),
+    ('p [kPa]', '{:>7}', '{:7.2f}', 'cushion pressure holding the closure (structure)'),
+    ('p refl', '{:>6}', '{:6.2f}', 'the same, energy statics on the reflection model [kPa]'),
+    ('air [L]', '{:>7}', '{:7.2f}', 'cushion volume added since open (structure)'),
+    ('air refl', '{:>8}', '{:8.2f}', 'the same, reflection model and strip cushion [L]'),
+    ('tip [mm]', '{:>8}', '{:8.1f}', 'travel of flap tip A since open (structure)'),
+    ('tip refl', '{:>8}', '{:8.1f}', 'the same, reflection model [mm]'),
+    ('hinge [%]', '{:>9}', '{:9.2f}', 'peak hinge surface strain (structure)'),
+    ('refl', '{:>5}', '{:5.2f}', 'the same, reflection model on the drawn line [%]'),
+    ('mid-rib [%]', '{:>11}', '{:11.2f}', 'peak mid-rib surface strain (structure)'),
+    ('flap [%]', '{:>8}', '{:8.2f}', 'peak flap surface strain (structure)'),
+    ('held', '{:>4}', '{:>4}',
+     'yes where a pressure regulator holds the closure; no beyond a pressure maximum'),
+)
+
+
+def structural_fold_table(panel, steps, mesh=PanelMesh()):
+    """Lines of the structural model's table beside the reflection model's, quad panels."""
+    if isinstance(panel, HexagonPanel):
+        raise ValueError('the structural model is built for quad panels only: the hexagon '
+                         'is not meshed yet (msg_docs/structure.md)')
+    actuated = actuated_preset(panel)
+
+    def progress(pressure_pa, apex_fold_rad):
+        print(f'fold_table: equilibrium at {pressure_pa / 1e3:.2f} kPa, apex fold '
+              f'{math.degrees(apex_fold_rad):.1f} deg', file=sys.stderr, flush=True)
+
+    path = structural_path(actuated, mesh, progress=progress)
+    closures = np.linspace(0.0, 1.0, steps)
+    ours, theirs = structural_rows(actuated, path, closures), kinematic_rows(actuated, closures)
+    held = ['-' if np.isnan(value) else ('yes' if value else 'no')
+            for value in ours.stable_at_pressure]
+    rows = zip(closures, np.degrees(ours.apex_fold_rad), np.degrees(ours.support_fold_rad),
+               ours.pressure_pa / 1e3, theirs.pressure_pa / 1e3, ours.air_m3 * 1e3,
+               theirs.air_m3 * 1e3, ours.tip_travel_m * 1e3, theirs.tip_travel_m * 1e3,
+               ours.hinge_strain * 100, theirs.hinge_strain * 100, ours.midrib_strain * 100,
+               ours.flap_strain * 100, held)
+    lines = [
+        f'structural model: panel {panel.length_m:g} m x {panel.width_m:g} m, fold radius '
+        f'{panel.fold_radius_m:g} m, hinge {panel.hinge_width_m * 1e3:.0f} mm; mesh '
+        f'{path.node_count} nodes ({mesh.columns} columns, rows {mesh.midrib_rows} mid-rib / '
+        f'{mesh.hinge_rows} hinge / {mesh.flap_rows} flap per side), '
+        f'{len(path.pressure_pa) - 1} equilibria',
+    ]
+    lines += _table(STRUCTURAL_COLUMNS, rows)
+    for index in path.limit_points:
+        lines.append(f'pressure maximum {path.pressure_pa[index] / 1e3:.2f} kPa at '
+                     f'{math.degrees(path.apex_fold_rad[index]):.1f} deg apex fold: beyond it a '
+                     f'pressure regulator snaps the panel through')
+    reached = math.degrees(float(np.max(path.apex_fold_rad)))
+    if path.ended == 'closed':
+        lines.append(f'the path reached the closed fold ({reached:.1f} deg)')
+    else:
+        lines.append(f'the path ended at {reached:.1f} deg apex fold: {path.ended}')
+    if mesh.columns < PanelMesh().columns or mesh.hinge_rows < PanelMesh().hinge_rows:
+        lines.append('a mesh coarser than the default: its pressure maxima and strains are not '
+                     'converged, and too few hinge rows make pressure maxima that finer meshes '
+                     'do not have (msg_docs/structure.md)')
+    allowable = actuated.hinge.allowable_strain
+    worst = float(np.max(path.peak_strain['hinge']))
+    lines.append(f'peak hinge strain on the path {worst * 100:.2f} % against an allowable '
+                 f'{allowable * 100:.1f} % ({worst / allowable:.1f} x)')
+    return lines
 
 
 def hexagon_fold_table(panel, steps):
@@ -152,8 +229,10 @@ def _strain_lines(actuated):
 def _table(columns, rows):
     lines = ['  '.join(header.format(name) for name, header, _, _ in columns)]
     for row in rows:
-        cells = (cell.format(value) if np.isfinite(value) else header.format('-')
-                 for (_, header, cell, _), value in zip(columns, row))
+        # A zero computed as -1e-12 prints as 0.00, not -0.00.
+        cells = (cell.format(value if isinstance(value, str) or abs(value) > 1e-9 else 0.0)
+                 if isinstance(value, str) or np.isfinite(value)
+                 else header.format('-') for (_, header, cell, _), value in zip(columns, row))
         lines.append('  '.join(cells))
     return lines
 
@@ -163,7 +242,10 @@ def _legend():
     lines += [f'  {name:<16} {meaning}' for name, _, _, meaning in COLUMNS]
     lines.append('columns, hexagonal panels (hexagon):')
     lines += [f'  {name:<16} {meaning}' for name, _, _, meaning in HEXAGON_COLUMNS]
-    lines.append('a "-" marks a value that is not defined there (amplification at zero travel)')
+    lines.append('columns, --model structural (quad panels):')
+    lines += [f'  {name:<16} {meaning}' for name, _, _, meaning in STRUCTURAL_COLUMNS]
+    lines.append('a "-" marks a value that is not defined there (amplification at zero travel, '
+                 'closures the structural path did not reach)')
     lines.append(f'strains are peak surface strains from the open state, for the laminates of '
                  f'the presets; the line after the table compares the closed state with the '
                  f'allowable strain ({FATIGUE_ALLOWABLE_STRAIN * 100:.1f} %, fatigue of '
@@ -179,11 +261,26 @@ def main(args=None):
                              'the same; hexagon: the hexagonal module of about 1 m2)')
     parser.add_argument('--steps', type=int, default=11,
                         help='number of closures from open to closed (default 11)')
+    parser.add_argument('--model', choices=('kinematic', 'structural'), default='kinematic',
+                        help='kinematic: the reflection model (default); structural: the '
+                             'equilibrium path of the GFRP sheet under the cushion beside the '
+                             'reflection model (quad panels; minutes, see --mesh)')
+    parser.add_argument('--mesh', choices=('coarse', 'default', 'fine'), default='default',
+                        help='structural mesh: coarse (40 columns, 2 hinge rows: seconds, '
+                             'not converged), default (80 columns, 4 hinge rows: minutes), '
+                             'fine (160 columns, 8 hinge rows: tens of minutes)')
     options = parser.parse_args((sys.argv if args is None else args)[1:])
     if options.steps < 2:
         parser.error('--steps must be at least 2')
+    panel = PANELS[options.panel]
+    if options.model == 'structural':
+        mesh = {'coarse': PanelMesh(40, 4, 2, 4), 'default': PanelMesh(),
+                'fine': PanelMesh(160, 16, 8, 16)}[options.mesh]
+        return run_command('fold_table', lambda stop: print(
+            '\n'.join(structural_fold_table(panel, options.steps, mesh))),
+            interrupted_code=130)
     return run_command('fold_table', lambda stop: print(
-        '\n'.join(fold_table(PANELS[options.panel], options.steps))), interrupted_code=130)
+        '\n'.join(fold_table(panel, options.steps))), interrupted_code=130)
 
 
 if __name__ == '__main__':

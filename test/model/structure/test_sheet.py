@@ -1,12 +1,16 @@
 """The structural sheet against beam theory, the elastica and its own energy balance."""
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 from scipy.spatial import Delaunay
 from scipy.special import ellipk
 
 from flectofold_model.kinematics import elastica
-from flectofold_model.structure import elements, Sheet, solve_prescribed, trace_path
+from flectofold_model.structure import (elements, Sheet, SheetSystem, solve_prescribed,
+                                        trace_path)
+from flectofold_model.structure.sheet import tangent_inertia
 from flectofold_model.structure.shell import MidEdgeBending
 
 YOUNGS_PA = 20e9
@@ -160,3 +164,75 @@ def test_a_sheet_refuses_laminates_and_triangles_that_cannot_exist():
     flipped[0] = flipped[0, [0, 2, 1]]
     with pytest.raises(ValueError, match='orientation'):
         build(triangles=flipped)
+
+
+def test_a_moulded_sheet_refuses_rest_shapes_that_cannot_exist():
+    points, faces = strip_mesh(0.3, 0.2, 0.1)
+    sheet, _ = strip_sheet(points, faces)
+    count = len(faces)
+    replace(sheet, rest_tilt_sine=np.ones((count, 3)))
+    replace(sheet, rest_tilt_sine=-np.ones((count, 3)))
+    with pytest.raises(ValueError, match='rest_tilt_sine'):
+        replace(sheet, rest_tilt_sine=np.full((count, 3), 1.0 + 1e-12))
+    with pytest.raises(ValueError, match='rest_tilt_sine'):
+        replace(sheet, rest_tilt_sine=np.zeros((count, 2)))
+    with pytest.raises(ValueError, match='rest_tilt_sine'):
+        replace(sheet, rest_tilt_sine=np.full((count, 3), np.nan))
+    flat = np.column_stack([points, np.zeros(len(points))])
+    replace(sheet, rest_positions_m=flat)
+    with pytest.raises(ValueError, match='rest_positions_m'):
+        replace(sheet, rest_positions_m=flat[:, :2])
+    broken = flat.copy()
+    broken[3, 2] = np.inf
+    with pytest.raises(ValueError, match='rest_positions_m'):
+        replace(sheet, rest_positions_m=broken)
+
+
+def test_a_sheet_moulded_in_a_shape_is_stress_free_there():
+    points, faces = strip_mesh(0.4, 0.1, 0.025)
+    sheet, _ = strip_sheet(points, faces)
+    # Roll the strip onto a cylinder of radius 0.5 m about the y axis: an isometry.
+    radius = 0.5
+    angle = points[:, 0] / radius
+    rolled = np.column_stack([radius * np.sin(angle), points[:, 1],
+                              radius * (1.0 - np.cos(angle))])
+    everywhere = replace(sheet, fixed=np.ones_like(sheet.fixed))
+    bent = solve_prescribed(everywhere, rolled, rolled)
+    assert bent.bending_energy_j > 1.0
+    moulded = replace(sheet, rest_tilt_sine=bent.tilt_sine, rest_positions_m=rolled)
+    held = solve_prescribed(moulded, rolled, rolled)
+    assert held.membrane_energy_j + held.bending_energy_j < 1e-12 * bent.bending_energy_j
+    assert held.positions_m == pytest.approx(rolled, abs=1e-9)
+    assert np.max(np.abs(held.reactions_n)) < 1e-6
+
+
+def test_the_bending_hessian_matches_central_differences_of_the_gradient():
+    points, faces = strip_mesh(0.3, 0.2, 0.05, jitter=0.2)
+    rng = np.random.default_rng(3)
+    count = len(faces)
+    bending = MidEdgeBending(points, faces, np.full(count, 2.0), np.full(count, 0.3),
+                             rest_sine=rng.normal(0.0, 0.1, (count, 3)))
+    local = np.zeros((count, 21))
+    flat = np.column_stack([points, np.zeros(len(points))])
+    local[:, :18] = flat[bending.stencil].reshape(count, 18) + rng.normal(0, 0.01, (count, 18))
+    local[:, 18:] = rng.normal(0.0, 0.1, (count, 3))
+    analytic = bending.local_hessian(local)
+    numeric = elements.finite_difference_hessian(bending.local_gradient, local, 1e-6)
+    assert np.max(np.abs(analytic - numeric)) <= 1e-6 * np.max(np.abs(numeric))
+
+
+def test_the_tangent_inertia_counts_the_negative_eigenvalues_of_a_compressed_strip():
+    points, faces = strip_mesh(0.5, 0.05, 0.025)
+    sheet, right = strip_sheet(points, faces, loaded=False)
+    system = SheetSystem(sheet)
+    flat = system.reference[system.free].copy()
+    assert tangent_inertia(system, flat, 0.0)[0] == 0
+    # Squeeze it straight by 1 %: far beyond its Euler load, so it is unstable straight.
+    squeezed = np.column_stack([points[:, 0] * 0.99, points[:, 1], np.zeros(len(points))])
+    values = system.full(flat)
+    values[:3 * len(points)] = squeezed.ravel()
+    values = values[system.free]
+    negative, _ = tangent_inertia(system, values, 0.0)
+    dense = np.linalg.eigvalsh(system.hessians(values, 0.0).toarray())
+    assert negative == np.count_nonzero(dense < 0.0)
+    assert negative >= 1

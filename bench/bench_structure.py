@@ -1,0 +1,123 @@
+"""Structural model of the quad panel: presets against the reflection model, mesh, CPU.
+
+Run with ``.venv/bin/python bench/bench_structure.py [--meshes] [--presets NAME ...]``.
+Everything printed is computed here; CPU is process time of this process.
+
+* ``--presets``: each preset's structural path on the default mesh beside the reflection model
+  (pressure, air, tip travel, hinge strain at closures 0.25 ... 1), where it ends, its pressure
+  maximum, and its CPU time against the reflection model's table of the same closures.
+* ``--meshes``: the demonstrator on three meshes (four with ``--finest``), each count doubled
+  from the one before; pressure and tip travel at fixed apex folds and the change per
+  refinement.
+"""
+
+import argparse
+import dataclasses
+import math
+import time
+
+import numpy as np
+
+from flectofold_model import PROTOTYPE
+from flectofold_model.actuation import (DEMONSTRATOR_ACTUATED, FLECTOLINE_ACTUATED,
+                                        radius_study, StripCushion)
+from flectofold_model.actuation.statics import actuated_like
+from flectofold_model.structure.comparison import kinematic_rows, structural_rows
+from flectofold_model.structure.panel import PanelMesh, structural_path
+
+CLOSURES = np.array([0.25, 0.5, 0.75, 1.0])
+
+
+def prototype():
+    geometry = PROTOTYPE
+    cushion = StripCushion(flat_width_m=0.8 * geometry.midrib_width_m,
+                           length_m=0.8 * geometry.length_m, mount_gap_m=0.003)
+    return actuated_like(geometry, dataclasses.replace(DEMONSTRATOR_ACTUATED, cushion=cushion))
+
+
+def presets():
+    study = radius_study((0.5, 0.75, 1.0))
+    return {'demonstrator': DEMONSTRATOR_ACTUATED, 'prototype': prototype(),
+            'flectoline-like': FLECTOLINE_ACTUATED,
+            'radius 500 mm': study.panels[0], 'radius 750 mm': study.panels[1],
+            'radius 1000 mm': study.panels[2]}
+
+
+def cpu_of(function):
+    start = time.process_time()
+    result = function()
+    return result, time.process_time() - start
+
+
+def compare(name, actuated, mesh):
+    path, cpu = cpu_of(lambda: structural_path(actuated, mesh))
+    theirs, kinematic_cpu = cpu_of(lambda: kinematic_rows(actuated, CLOSURES))
+    ours = structural_rows(actuated, path, CLOSURES)
+    print(f'== {name}: {path.node_count} nodes, {len(path.pressure_pa) - 1} equilibria, '
+          f'{cpu:.1f} s CPU (reflection model {kinematic_cpu * 1e3:.0f} ms, '
+          f'{cpu / max(kinematic_cpu, 1e-9):.0f}x) ==')
+    print('closure  fold  p [kPa] refl  air [L] refl  tip [mm] refl  hinge [%] refl  '
+          'supports fold  support travel [mm]')
+    travel = np.interp(ours.apex_fold_rad, path.apex_fold_rad, path.support_travel_m)
+    for i, closure in enumerate(CLOSURES):
+        print(f'{closure:7.2f} {math.degrees(ours.apex_fold_rad[i]):5.1f}  '
+              f'{ours.pressure_pa[i] / 1e3:7.2f} {theirs.pressure_pa[i] / 1e3:4.2f}  '
+              f'{ours.air_m3[i] * 1e3:7.2f} {theirs.air_m3[i] * 1e3:4.2f}  '
+              f'{ours.tip_travel_m[i] * 1e3:8.1f} {theirs.tip_travel_m[i] * 1e3:4.0f}  '
+              f'{ours.hinge_strain[i] * 100:9.2f} {theirs.hinge_strain[i] * 100:4.2f}  '
+              f'{math.degrees(ours.support_fold_rad[i]):13.1f}  '
+              f'{travel[i] * 1e3 if np.isfinite(ours.pressure_pa[i]) else math.nan:19.2f}')
+    for index in path.limit_points:
+        print(f'pressure maximum {path.pressure_pa[index] / 1e3:.2f} kPa at '
+              f'{math.degrees(path.apex_fold_rad[index]):.1f} deg')
+    print(f'ended: {path.ended}; largest apex fold '
+          f'{math.degrees(path.apex_fold_rad.max()):.1f} deg at '
+          f'{path.pressure_pa[np.argmax(path.apex_fold_rad)] / 1e3:.2f} kPa; strain energy '
+          f'{path.strain_energy_j[-1]:.2f} J; peak strains hinge '
+          f'{path.peak_strain["hinge"].max() * 100:.2f} %, mid-rib '
+          f'{path.peak_strain["midrib"].max() * 100:.2f} %, flap '
+          f'{path.peak_strain["flap"].max() * 100:.2f} %')
+    print()
+
+
+def meshes(factors):
+    folds = np.radians([20.0, 40.0, 60.0])
+    print('== mesh refinement, demonstrator: at apex folds 20 / 40 / 60 deg ==')
+    previous = None
+    for factor in factors:
+        mesh = PanelMesh(20, 2, 1, 2).refined(factor)
+        path, cpu = cpu_of(lambda: structural_path(DEMONSTRATOR_ACTUATED, mesh))
+        reach = path.apex_fold_rad.max()
+        pressure = np.where(folds <= reach, np.interp(folds, path.apex_fold_rad,
+                                                      path.pressure_pa), np.nan)
+        tip = np.where(folds <= reach, np.interp(folds, path.apex_fold_rad, path.tip_travel_m),
+                       np.nan)
+        line = (f'{mesh.columns:3d} columns, hinge rows {mesh.hinge_rows}: {path.node_count:5d} '
+                f'nodes, {cpu:7.1f} s CPU; p [kPa] '
+                + ' / '.join(f'{p / 1e3:.3f}' for p in pressure) + '; tip [mm] '
+                + ' / '.join(f'{t * 1e3:.1f}' for t in tip)
+                + f'; reached {math.degrees(reach):.1f} deg ({path.ended[:40]})')
+        if previous is not None:
+            line += '; change in p ' + ' / '.join(
+                f'{(p - q) / q * 100:+.2f} %' for p, q in zip(pressure, previous))
+        print(line, flush=True)
+        previous = pressure
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument('--meshes', action='store_true')
+    parser.add_argument('--finest', action='store_true',
+                        help='with --meshes, also 160 columns and 8 hinge rows (an hour or more)')
+    parser.add_argument('--presets', nargs='*')
+    options = parser.parse_args()
+    if options.presets is not None:
+        chosen = presets()
+        for name in options.presets or chosen:
+            compare(name, chosen[name], PanelMesh())
+    if options.meshes:
+        meshes((1, 2, 4, 8) if options.finest else (1, 2, 4))
+
+
+if __name__ == '__main__':
+    main()

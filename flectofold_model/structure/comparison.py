@@ -1,0 +1,79 @@
+"""The structural path and the reflection model side by side, at the same closures.
+
+Closure is the package's: ``(rho - rho_open) / (rho_closed - rho_open)`` of the apex fold
+angle ``rho``, with ``rho_open`` the pre-fold and ``rho_closed`` the kinematic model's closed
+limit (:mod:`~..kinematics.closure`). The structural path is read at the same apex fold
+angles by linear interpolation between its equilibria; closures it did not reach are NaN.
+"""
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from flectofold_model.actuation.statics import ActuationModel
+from flectofold_model.actuation.strain import panel_strain
+
+
+@dataclass(frozen=True)
+class ClosureRows:
+    """One value per closure of each quantity; NaN where a model has none."""
+
+    closure: np.ndarray
+    """0 open ... 1 closed."""
+    apex_fold_rad: np.ndarray
+    """Apex fold angle of the closure [rad] (the same for both models)."""
+    pressure_pa: np.ndarray
+    """Cushion gauge pressure holding the closure [Pa]."""
+    air_m3: np.ndarray
+    """Cushion volume added since open [m3]."""
+    tip_travel_m: np.ndarray
+    """Distance flap tip A moved since open [m]."""
+    hinge_strain: np.ndarray
+    """Peak hinge surface strain."""
+    midrib_strain: np.ndarray
+    """Peak mid-rib surface strain."""
+    flap_strain: np.ndarray
+    """Peak flap surface strain."""
+    support_fold_rad: np.ndarray = None
+    """Fold angle next to the supports [rad] (structural only)."""
+    stable_at_pressure: np.ndarray = None
+    """Whether a pressure regulator holds the closure (structural only)."""
+
+
+def kinematic_rows(actuated, closures):
+    """Read the reflection model with its energy statics at ``closures``."""
+    closures = np.asarray(closures, dtype=np.float64)
+    model = ActuationModel([actuated] * len(closures))
+    state = model.fold.state_from_closure(closures)
+    strain = panel_strain([actuated] * len(closures), closures)
+    air = (model.cushion_volume_m3(state.shape_parameter)
+           - model.cushion_volume_m3(model.fold.open_shape))
+    return ClosureRows(closures, state.apex_fold_angle_rad, model.pressure_from_closure(closures),
+                       air, state.tip_travel_m, strain.hinge_strain, strain.midrib_strain,
+                       strain.flap_strain)
+
+
+def structural_rows(actuated, path, closures):
+    """Read a :class:`~.panel.StructuralPath` at the closures of the kinematic map."""
+    closures = np.asarray(closures, dtype=np.float64)
+    model = ActuationModel([actuated])
+    opened = float(model.fold.open_fold_angle_rad[0])
+    closed = float(model.fold.closed_fold_angle_rad[0])
+    target = opened + closures * (closed - opened)
+    fold = np.asarray(path.apex_fold_rad)
+    # The path up to its largest apex fold, where the fold rises along it.
+    end = int(np.argmax(fold)) + 1
+    rising = np.maximum.accumulate(fold[:end])
+
+    def at(values):
+        values = np.asarray(values, dtype=np.float64)[:end]
+        result = np.interp(target, rising, values)
+        return np.where((target >= rising[0] - 1e-9) & (target <= rising[-1] + 1e-9),
+                        result, np.nan)
+
+    stable = at(np.asarray(path.stable_at_pressure, dtype=np.float64))
+    return ClosureRows(
+        closures, target, at(path.pressure_pa), at(path.air_m3), at(path.tip_travel_m),
+        at(path.peak_strain['hinge']), at(path.peak_strain['midrib']),
+        at(path.peak_strain['flap']), at(path.support_fold_rad),
+        np.where(np.isnan(stable), np.nan, stable >= 1.0))

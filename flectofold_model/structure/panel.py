@@ -1,0 +1,374 @@
+"""A quad Flectofold panel on the structural sheet: mesh, moulded pre-fold, supports, cushion.
+
+The flat panel lies in ``z = 0`` with the mid-rib along ``x`` (supports B and C at
+``x = -+L/2``) and the fold lines the drawn circular arcs
+``y_c(x) = +-(y_apex - R + sqrt(R^2 - x^2))`` of :class:`~..kinematics.panel.PanelGeometry`.
+
+* **Mesh**: structured, one column of nodes per ``x`` station; across, the mid-rib, each hinge
+  zone and each flap get their own rows, so the hinge zones are bands of material between
+  the arcs of radius ``R -+ hinge_width_m / 2`` concentric with the drawn one (the crease is
+  fixed in the material on the drawn curve, whatever the fold asks). Each quad is split along
+  a diagonal in a checker pattern, so the mesh keeps both mirror symmetries.
+* **Laminates** per zone from :class:`~..actuation.statics.ActuatedPanel`.
+* **Moulded pre-fold**: the hinge bands are given a rest curvature across the band, scaled
+  until the unloaded equilibrium held at the supports has the apex fold ``prefold_rad`` (the
+  mid-rib and flaps resist the fold, as the curved fold makes them bend); that equilibrium is
+  the moulded shape, and its curvatures and its triangles are then taken as the stress-free
+  state, as the paper's moulded part is (how far it is from isometric to the flat pattern is
+  reported as the membrane energy it would hold on the flat metric).
+* **Supports as assumed**: the mid-rib's end edge between the hinge bands is held at both ends
+  (a line pin across the rib: no translation at B, none across or out of plane at C, so C
+  slides along the axis; rotation about the line is free). The drawings of the built supports
+  are not published; this is the pin-and-slider of Koerner et al.'s kinematic model.
+* **Cushion**: the strip cushion's flat footprint (``flat_width_m`` x ``length_m``, centred)
+  on the mid-rib presses as a follower pressure load; its back is the plane ``z =
+  -mount_gap_m``. The strip cushion's shrinking contact width is not modelled: the whole
+  footprint stays loaded.
+
+The fold angle is read at each column across a hinge band, from the normal of the mid-rib face
+at the band's inner edge to that of the flap face at its outer edge (positive closing), the
+total rotation the hinge zone carries, which is what the kinematic model's fold angle is.
+"""
+
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from flectofold_model.structure.sheet import Sheet, SheetSystem, solve_prescribed
+
+#: Zone labels of the panel's triangles.
+MIDRIB, HINGE, FLAP = 0, 1, 2
+
+#: Attempts and relative tolerance of the moulded apex fold against the pre-fold.
+MOULD_ATTEMPTS, MOULD_TOLERANCE = 6, 0.005
+
+#: Steps in which the moulded pre-fold is raised from flat.
+MOULD_STEPS = 2
+
+
+@dataclass(frozen=True)
+class PanelMesh:
+    """Element counts of the structured panel mesh."""
+
+    columns: int = 80
+    """Elements along the mid-rib, support to support (even)."""
+    midrib_rows: int = 8
+    """Rows across each half of the mid-rib."""
+    hinge_rows: int = 4
+    """Rows across each hinge band."""
+    flap_rows: int = 8
+    """Rows across each flap."""
+
+    def __post_init__(self):
+        for name in ('columns', 'midrib_rows', 'hinge_rows', 'flap_rows'):
+            value = getattr(self, name)
+            if not isinstance(value, (int, np.integer)) or value < 1:
+                raise ValueError(f'{name} must be a positive integer, got {value!r}')
+        if self.columns % 2 or self.columns < 4:
+            raise ValueError(f'columns must be even and at least 4, got {self.columns}')
+
+    def refined(self, factor):
+        """Return the same mesh with every count multiplied by ``factor``."""
+        return PanelMesh(self.columns * factor, self.midrib_rows * factor,
+                         self.hinge_rows * factor, self.flap_rows * factor)
+
+
+@dataclass(frozen=True)
+class PanelSheet:
+    """A panel as a :class:`~.sheet.Sheet` and where its parts are in the mesh."""
+
+    sheet: Sheet
+    grid: np.ndarray
+    """Node index at (column, row) ``(columns + 1, rows + 1)``; row 0 is the ``-y`` edge."""
+    x_m: np.ndarray
+    """``x`` of each column [m]."""
+    inner_row: int
+    """Row of the upper (+y) hinge band's inner edge (mid-rib side)."""
+    outer_row: int
+    """Row of the upper hinge band's outer edge (flap side)."""
+    tip_node: int
+    """Node of flap tip A: mid-span of the +y flap edge."""
+    geometry: object
+    """The :class:`~..kinematics.panel.PanelGeometry` meshed."""
+
+
+def build_panel_sheet(panel, mesh=PanelMesh()):
+    """Mesh an :class:`~..actuation.statics.ActuatedPanel` into a flat :class:`PanelSheet`."""
+    geometry = panel.geometry
+    half_length = geometry.length_m / 2
+    x = np.linspace(-half_length, half_length, mesh.columns + 1)
+    radius = geometry.fold_radius_m
+    centre = geometry.midrib_width_m / 2 - radius
+    half_band = geometry.hinge_width_m / 2
+    # The band's edges are the arcs concentric with the drawn one, radius R -+ b/2.
+    inner = centre + np.sqrt(np.maximum((radius - half_band)**2 - x**2, 0.0))
+    outer = centre + np.sqrt((radius + half_band)**2 - x**2)
+    if np.any(x**2 >= (radius - half_band)**2) or np.any(inner <= 0.0):
+        raise ValueError('the hinge bands meet on the axis: the mid-rib is narrower than '
+                         'the hinge zones at the supports')
+    if np.any(outer >= geometry.width_m / 2):
+        raise ValueError('the hinge bands reach the flap edge')
+    fractions = np.concatenate([
+        np.linspace(0.0, 1.0, mesh.midrib_rows + 1)[:, None] * inner,
+        inner + np.linspace(0.0, 1.0, mesh.hinge_rows + 1)[1:, None] * (outer - inner),
+        outer + np.linspace(0.0, 1.0, mesh.flap_rows + 1)[1:, None]
+        * (geometry.width_m / 2 - outer)])
+    upper = fractions.T
+    y = np.concatenate([-upper[:, :0:-1], upper], axis=1)
+    rows = y.shape[1] - 1
+    grid = np.arange((mesh.columns + 1) * (rows + 1)).reshape(mesh.columns + 1, rows + 1)
+    xy = np.column_stack([np.repeat(x, rows + 1), y.ravel()])
+    triangles, row_of = _checker_triangles(grid)
+    half = rows // 2
+    distance = np.abs(row_of - half + 0.5) + 0.5
+    zone = np.where(distance <= mesh.midrib_rows, MIDRIB,
+                    np.where(distance <= mesh.midrib_rows + mesh.hinge_rows, HINGE, FLAP))
+    laminates = {MIDRIB: panel.midrib, HINGE: panel.hinge, FLAP: panel.flap}
+    thickness = np.array([laminates[z].thickness_m for z in zone])
+    modulus = np.array([laminates[z].youngs_modulus_pa for z in zone])
+    poisson = np.array([laminates[z].poisson_ratio for z in zone])
+    fixed = np.zeros((len(xy), 3), dtype=bool)
+    rib_rows = slice(half - mesh.midrib_rows, half + mesh.midrib_rows + 1)
+    fixed[grid[0, rib_rows]] = True
+    fixed[grid[-1, rib_rows], 1:] = True
+    centroid = xy[triangles].mean(axis=1)
+    cushion = panel.cushion
+    loaded = ((zone == MIDRIB) & (np.abs(centroid[:, 0]) <= cushion.length_m / 2)
+              & (np.abs(centroid[:, 1]) <= cushion.flat_width_m / 2))
+    sheet = Sheet(xy, triangles, thickness, modulus, poisson, fixed, loaded,
+                  -cushion.mount_gap_m, zone)
+    return PanelSheet(sheet, grid, x, half + mesh.midrib_rows,
+                      half + mesh.midrib_rows + mesh.hinge_rows,
+                      int(grid[mesh.columns // 2, -1]), geometry)
+
+
+def _checker_triangles(grid):
+    """Counter-clockwise triangles of a structured grid, diagonals in a checker pattern."""
+    columns, rows = grid.shape[0] - 1, grid.shape[1] - 1
+    i, j = np.meshgrid(np.arange(columns), np.arange(rows), indexing='ij')
+    i, j = i.ravel(), j.ravel()
+    a, b = grid[i, j], grid[i + 1, j]
+    c, d = grid[i + 1, j + 1], grid[i, j + 1]
+    # Diagonal a-c on even cells, b-d on odd: mirror-symmetric in x and y for even counts.
+    even = ((i + j) % 2 == 0)
+    first = np.where(even[:, None], np.stack([a, b, c], 1), np.stack([a, b, d], 1))
+    second = np.where(even[:, None], np.stack([a, c, d], 1), np.stack([b, c, d], 1))
+    return np.concatenate([first, second]), np.concatenate([j, j])
+
+
+def mould_prefold(panel_sheet, prefold_rad):
+    """Give the hinge bands the moulded pre-fold and return the sheet and its rest unknowns.
+
+    Returns
+    -------
+    sheet : Sheet
+        The panel's sheet with ``rest_tilt_sine`` of the moulded shape.
+    start : ndarray
+        Free unknowns of the unloaded moulded shape held at the supports.
+    moulding_membrane_energy_j : float
+        Membrane energy the moulded shape would hold on the flat pattern's metric: how far
+        from isometric the mould is (it is stress-free by construction).
+    """
+    sheet = panel_sheet.sheet
+    if prefold_rad == 0.0:
+        system = SheetSystem(sheet)
+        return sheet, system.reference[system.free].copy(), 0.0
+    system = SheetSystem(sheet)
+    xy = sheet.reference_xy_m[sheet.triangles]
+    centroid = xy.mean(axis=1)
+    geometry = panel_sheet.geometry
+    # In-plane unit normal of the drawn arc, pointing away from the axis, at each centroid.
+    centre_y = np.sign(centroid[:, 1]) * (geometry.midrib_width_m / 2 - geometry.fold_radius_m)
+    outward = np.column_stack([centroid[:, 0], centroid[:, 1] - centre_y])
+    outward /= np.linalg.norm(outward, axis=1, keepdims=True)
+    # Negative about the outward normal: the flaps rise toward +z, the side the cushion
+    # arches the mid-rib to, so that arching the mid-rib folds them further (closing).
+    curvature = np.where(sheet.zone == HINGE, -prefold_rad / geometry.hinge_width_m, 0.0)
+    target = curvature[:, None, None] * np.einsum('mi,mj->mij', outward, outward)
+    basis = system.bending._shape_basis
+    matrix = np.stack([basis[:, :, 0, 0], basis[:, :, 0, 1], basis[:, :, 1, 1]], axis=1)
+    rhs = np.stack([target[:, 0, 0], target[:, 0, 1], target[:, 1, 1]], axis=1)
+    rest = np.linalg.solve(matrix, rhs[:, :, None])[:, :, 0]
+    # The hinge's rest curvature is scaled until the unloaded shape's apex fold is the
+    # pre-fold (the mid-rib and flaps resist the fold, as the curved fold makes them bend).
+    held = np.column_stack([sheet.reference_xy_m, np.zeros(sheet.node_count)])
+    guess, achieved, scale = None, 0.0, 0.0
+    # Raised from flat in steps, then rescaled from the last shape until the fold is met.
+    scales = list(np.linspace(0.0, 1.0, MOULD_STEPS + 1)[1:])
+    for attempt in range(MOULD_STEPS + MOULD_ATTEMPTS):
+        scale = scales[attempt] if attempt < MOULD_STEPS else scale * prefold_rad / achieved
+        folded = replace(sheet, rest_tilt_sine=np.clip(scale * rest, -1.0, 1.0))
+        first = solve_prescribed(folded, held, held, guess_unknowns=guess)
+        guess = first.unknowns
+        if attempt + 1 >= MOULD_STEPS:
+            achieved = apex_fold_angle_rad(panel_sheet, first.positions_m)
+            if abs(achieved - prefold_rad) <= MOULD_TOLERANCE * prefold_rad:
+                break
+    else:
+        raise ValueError(f'could not mould the pre-fold {prefold_rad:g} rad: the unloaded '
+                         f'panel holds {achieved:g} rad at the apex')
+    # The mould's shape is the stress-free state: its curvatures and its metric.
+    moulded = replace(sheet, rest_tilt_sine=first.tilt_sine,
+                      rest_positions_m=first.positions_m)
+    return moulded, first.unknowns, first.membrane_energy_j
+
+
+def fold_angles_rad(panel_sheet, positions_m):
+    """Fold angle across the upper hinge band at each column of cells ``(columns,)`` [rad].
+
+    From the normal of the mid-rib face next to the band's inner edge to that of the flap face
+    next to its outer edge; positive when the flap has turned toward ``+z`` (closing).
+    """
+    grid = panel_sheet.grid
+    inner, outer = panel_sheet.inner_row, panel_sheet.outer_row
+    columns = grid.shape[0] - 1
+    normals = []
+    for row in (inner - 1, outer):
+        # The two triangles of each cell in that row, averaged: a cell normal.
+        a, b = grid[:-1, row], grid[1:, row]
+        c, d = grid[1:, row + 1], grid[:-1, row + 1]
+        normal = np.cross(positions_m[c] - positions_m[a], positions_m[d] - positions_m[b])
+        normals.append(normal / np.linalg.norm(normal, axis=1, keepdims=True))
+    rib, flap = normals
+    cosine = np.clip(np.einsum('ij,ij->i', rib, flap), -1.0, 1.0)
+    # The flap's outer edge above or below the mid-rib face's plane gives the sign.
+    rise = np.einsum('ij,ij->i', positions_m[grid[:-1, -1]] + positions_m[grid[1:, -1]]
+                     - positions_m[grid[:-1, inner]] - positions_m[grid[1:, inner]], rib)
+    del columns
+    return np.sign(rise) * np.arccos(cosine)
+
+
+def apex_fold_angle_rad(panel_sheet, positions_m):
+    """Fold angle at mid-span [rad]: the mean of the two columns of cells beside it."""
+    angles = fold_angles_rad(panel_sheet, positions_m)
+    middle = len(angles) // 2
+    return float(0.5 * (angles[middle - 1] + angles[middle]))
+
+
+@dataclass(frozen=True)
+class StructuralPath:
+    """The equilibrium path of one panel from open toward closed, one entry per equilibrium.
+
+    Every array has one value per equilibrium of the path, the open (moulded) shape first.
+    """
+
+    pressure_pa: np.ndarray
+    """Cushion gauge pressure [Pa]."""
+    air_m3: np.ndarray
+    """Air pushed into the cushion since the open state, at its volume [m3]."""
+    apex_fold_rad: np.ndarray
+    """Fold angle across the hinge band at mid-span [rad]."""
+    support_fold_rad: np.ndarray
+    """Fold angle across the hinge band in the cells next to the supports, mean of both
+    ends [rad]."""
+    fold_along_rad: np.ndarray
+    """Fold angle at every column of cells ``(points, columns)`` [rad]."""
+    tip_travel_m: np.ndarray
+    """Distance flap tip A moved from the open state [m]."""
+    support_travel_m: np.ndarray
+    """Travel of the sliding support C toward B since the open state [m]."""
+    peak_strain: dict
+    """Peak surface strain per zone (``'midrib'``, ``'hinge'``, ``'flap'``): the change of
+    curvature from the moulded state times half the thickness plus the membrane strain."""
+    strain_energy_j: np.ndarray
+    """Membrane and bending strain energy stored since the open state [J]; by the energy
+    balance, the work of the cushion."""
+    stable_at_pressure: np.ndarray
+    """True where the equilibrium holds with the pressure set (a pressure regulator)."""
+    stable_at_volume: np.ndarray
+    """True where it holds with the air in the cushion held."""
+    ended: str
+    """Why the path ended: ``'closed'`` (the apex fold reached the target) or the solver's
+    reason."""
+    node_count: int
+    """Nodes of the mesh."""
+    moulding_energy_j: float
+    """Membrane energy the moulded shape would hold on the flat pattern's metric [J]."""
+
+    @property
+    def limit_points(self):
+        """Indices of pressure maxima (limit points).
+
+        The last equilibrium stable at its pressure before one that is not; beyond it a
+        pressure regulator snaps the panel through.
+        """
+        stable = np.asarray(self.stable_at_pressure, dtype=bool)
+        return np.flatnonzero(stable[:-1] & ~stable[1:])
+
+
+def structural_path(panel, mesh=PanelMesh(), target_fold_rad=None, steps=24,
+                    air_estimate_m3=None, tolerance=1e-8, progress=None):
+    """Trace a quad panel's equilibrium path under rising cushion volume.
+
+    Parameters
+    ----------
+    panel : ActuatedPanel
+    mesh : PanelMesh
+    target_fold_rad : float, optional
+        Apex fold angle at which the path ends ("closed"); default the kinematic model's
+        closed fold angle of the panel.
+    steps : int
+        Volume steps the path aims for up to the target (the step is the kinematic model's air
+        to close divided by ``steps``, or ``air_estimate_m3 / steps``); a step is halved when
+        Newton's method needs it.
+    progress : callable, optional
+        ``progress(pressure_pa, apex_fold_rad)`` after every equilibrium.
+    """
+    from flectofold_model.actuation.statics import ActuationModel
+    from flectofold_model.structure.sheet import PathError, trace_path
+
+    if target_fold_rad is None or air_estimate_m3 is None:
+        model = ActuationModel([panel])
+        if target_fold_rad is None:
+            target_fold_rad = float(model.fold.closed_fold_angle_rad[0])
+        if air_estimate_m3 is None:
+            air_estimate_m3 = float(model.cushion_volume_m3(model.fold.closed_shape)[0]
+                                    - model.cushion_volume_m3(model.fold.open_shape)[0])
+    panel_sheet = build_panel_sheet(panel, mesh)
+    sheet, start, moulding_energy = mould_prefold(panel_sheet, panel.geometry.prefold_rad)
+    ended = 'closed'
+    try:
+        def reached(point):
+            fold = apex_fold_angle_rad(panel_sheet, point.positions_m)
+            if progress is not None:
+                progress(point.pressure_pa, fold)
+            return fold >= target_fold_rad
+
+        points = trace_path(sheet, air_estimate_m3 / steps, reached, max_steps=8 * steps,
+                            tolerance=tolerance, start=start)
+    except PathError as error:
+        points, ended = error.points, str(error)
+    return _path_from_points(panel_sheet, sheet, points, ended, moulding_energy)
+
+
+def _path_from_points(panel_sheet, sheet, points, ended, moulding_energy):
+    system = SheetSystem(sheet)
+    folds = np.array([fold_angles_rad(panel_sheet, p.positions_m) for p in points])
+    middle = folds.shape[1] // 2
+    tip = np.array([p.positions_m[panel_sheet.tip_node] for p in points])
+    slider = panel_sheet.grid[-1, panel_sheet.grid.shape[1] // 2]
+    half_thickness = 0.5 * sheet.thickness_m
+    zones = {'midrib': MIDRIB, 'hinge': HINGE, 'flap': FLAP}
+    peaks = {name: [] for name in zones}
+    for point in points:
+        bending = np.abs(system.curvatures_per_m(point.unknowns, from_rest=True)[:, 0])
+        membrane = np.abs(system.membrane_strains(point.unknowns)[:, 0])
+        surface = bending * half_thickness + membrane
+        for name, zone in zones.items():
+            peaks[name].append(float(surface[sheet.zone == zone].max()))
+    return StructuralPath(
+        pressure_pa=np.array([p.pressure_pa for p in points]),
+        air_m3=np.array([p.volume_m3 - points[0].volume_m3 for p in points]),
+        apex_fold_rad=0.5 * (folds[:, middle - 1] + folds[:, middle]),
+        support_fold_rad=0.5 * (folds[:, 0] + folds[:, -1]),
+        fold_along_rad=folds,
+        tip_travel_m=np.linalg.norm(tip - tip[0], axis=1),
+        support_travel_m=np.array([points[0].positions_m[slider, 0] - p.positions_m[slider, 0]
+                                   for p in points]),
+        peak_strain={name: np.array(values) for name, values in peaks.items()},
+        strain_energy_j=np.array([p.membrane_energy_j + p.bending_energy_j
+                                  - points[0].membrane_energy_j - points[0].bending_energy_j
+                                  for p in points]),
+        stable_at_pressure=np.array([bool(p.stable_at_pressure) for p in points]),
+        stable_at_volume=np.array([bool(p.stable_at_volume) for p in points]),
+        ended=ended, node_count=sheet.node_count, moulding_energy_j=moulding_energy)

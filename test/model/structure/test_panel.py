@@ -1,0 +1,158 @@
+"""A quad panel on the structural sheet: its mesh, its moulded pre-fold and its path."""
+
+from dataclasses import replace
+import math
+
+import numpy as np
+import pytest
+
+from flectofold_model.actuation import DEMONSTRATOR_ACTUATED
+from flectofold_model.kinematics.panel import PanelGeometry
+from flectofold_model.structure.comparison import kinematic_rows, structural_rows
+from flectofold_model.structure.panel import (apex_fold_angle_rad, build_panel_sheet, FLAP,
+                                              HINGE, MIDRIB, mould_prefold, PanelMesh,
+                                              structural_path, StructuralPath)
+from flectofold_model.structure.sheet import SheetSystem
+
+COARSE = PanelMesh(20, 2, 2, 2)
+#: The path of the tests ends at a 36 deg apex fold (closure 0.36), well before the
+#: demonstrator's pressure maximum, so that it is smooth on the coarse mesh.
+TARGET_FOLD_RAD = math.radians(36.0)
+
+
+@pytest.fixture(scope='module')
+def panel_sheet():
+    return build_panel_sheet(DEMONSTRATOR_ACTUATED, COARSE)
+
+
+@pytest.fixture(scope='module')
+def path():
+    return structural_path(DEMONSTRATOR_ACTUATED, COARSE, target_fold_rad=TARGET_FOLD_RAD,
+                           steps=40)
+
+
+def test_the_hinge_bands_lie_between_arcs_concentric_with_the_drawn_fold_line(panel_sheet):
+    geometry = DEMONSTRATOR_ACTUATED.geometry
+    centre = np.array([0.0, geometry.midrib_width_m / 2 - geometry.fold_radius_m])
+    xy = panel_sheet.sheet.reference_xy_m
+    for row, radius in ((panel_sheet.inner_row, geometry.fold_radius_m
+                         - geometry.hinge_width_m / 2),
+                        (panel_sheet.outer_row, geometry.fold_radius_m
+                         + geometry.hinge_width_m / 2)):
+        distance = np.linalg.norm(xy[panel_sheet.grid[:, row]] - centre, axis=1)
+        assert distance == pytest.approx(radius, abs=1e-12)
+    zone = panel_sheet.sheet.zone
+    assert set(np.unique(zone)) == {MIDRIB, HINGE, FLAP}
+    hinge_area = SheetSystem(panel_sheet.sheet).area[zone == HINGE].sum()
+    # Two bands of the hinge width along arcs of about the length: the chords of the mesh
+    # cut the arcs by a little.
+    arc = 2 * geometry.fold_radius_m * math.asin(geometry.length_m / 2
+                                                 / geometry.fold_radius_m)
+    assert hinge_area == pytest.approx(2 * geometry.hinge_width_m * arc, rel=0.01)
+
+
+def test_the_mesh_keeps_both_mirror_symmetries(panel_sheet):
+    xy = panel_sheet.sheet.reference_xy_m
+    points = {tuple(np.round(p, 12)) for p in xy}
+    for mirror in ((1, -1), (-1, 1)):
+        assert {tuple(np.round(p * mirror, 12)) for p in xy} == points
+    zone = panel_sheet.sheet.zone
+    centroid = xy[panel_sheet.sheet.triangles].mean(axis=1)
+    for kind in (MIDRIB, HINGE, FLAP):
+        upper = np.count_nonzero((zone == kind) & (centroid[:, 1] > 0))
+        lower = np.count_nonzero((zone == kind) & (centroid[:, 1] < 0))
+        assert upper == lower
+
+
+@pytest.mark.parametrize('field, value', [('columns', 3), ('columns', 2), ('columns', 0),
+                                          ('hinge_rows', 0), ('flap_rows', -1),
+                                          ('midrib_rows', 1.5)])
+def test_a_mesh_refuses_counts_it_cannot_mesh(field, value):
+    with pytest.raises(ValueError, match=field):
+        replace(PanelMesh(), **{field: value})
+
+
+def test_the_smallest_mesh_is_accepted():
+    assert PanelMesh(4, 1, 1, 1).refined(2) == PanelMesh(8, 2, 2, 2)
+    assert PanelMesh() == PanelMesh(80, 8, 4, 8)
+
+
+def test_hinge_bands_that_meet_on_the_axis_at_the_supports_are_refused():
+    geometry = DEMONSTRATOR_ACTUATED.geometry
+    narrow = PanelGeometry.with_lens_midrib(
+        length_m=geometry.length_m, width_m=geometry.width_m,
+        fold_radius_m=geometry.fold_radius_m, end_width_m=0.02, hinge_width_m=0.03)
+    with pytest.raises(ValueError, match='hinge bands meet on the axis'):
+        build_panel_sheet(replace(DEMONSTRATOR_ACTUATED, geometry=narrow), COARSE)
+    wide_enough = PanelGeometry.with_lens_midrib(
+        length_m=geometry.length_m, width_m=geometry.width_m,
+        fold_radius_m=geometry.fold_radius_m, end_width_m=0.04, hinge_width_m=0.03)
+    build_panel_sheet(replace(DEMONSTRATOR_ACTUATED, geometry=wide_enough), COARSE)
+
+
+def test_the_moulded_open_shape_holds_the_prefold_and_is_stress_free(panel_sheet):
+    prefold = DEMONSTRATOR_ACTUATED.geometry.prefold_rad
+    sheet, start, off_isometric = mould_prefold(panel_sheet, prefold)
+    system = SheetSystem(sheet)
+    positions = system.positions(start)
+    assert apex_fold_angle_rad(panel_sheet, positions) == pytest.approx(prefold, rel=0.01)
+    assert system.energies_j(start) == pytest.approx((0.0, 0.0), abs=1e-15)
+    gradient, _ = system.gradients(start)
+    assert np.max(np.abs(gradient)) < 1e-7
+    # The mould is nearly isometric to the flat pattern: held on the flat metric it would
+    # store a few mJ, against about 0.6 J of strain energy at a 40 deg fold.
+    assert 0.0 < off_isometric < 5e-3
+    assert positions[panel_sheet.tip_node][2] > 0.0
+
+
+def test_the_path_balances_the_cushion_work_and_the_strain_energy_at_every_step(path):
+    assert path.ended == 'closed'
+    assert len(path.pressure_pa) >= 21
+    steps = np.diff(path.air_m3)
+    # Simpson's rule over pairs of equal steps (fourth order): the balance is then limited
+    # by the solver's convergence, not by the quadrature.
+    pairs = (len(steps) // 2) * 2
+    assert steps[:pairs] == pytest.approx(steps[0], rel=1e-9)
+    pressure, energy = path.pressure_pa, path.strain_energy_j
+    for first in range(0, pairs, 2):
+        work = steps[first] / 3 * (pressure[first] + 4 * pressure[first + 1]
+                                   + pressure[first + 2])
+        stored = energy[first + 2] - energy[first]
+        assert stored == pytest.approx(work, rel=1e-3)
+
+
+def test_the_path_closes_monotonically_and_is_stable_under_either_control(path):
+    assert np.all(np.diff(path.apex_fold_rad) > 0.0)
+    assert np.all(np.diff(path.pressure_pa) > 0.0)
+    assert path.apex_fold_rad[-1] >= TARGET_FOLD_RAD
+    assert np.all(path.stable_at_pressure) and np.all(path.stable_at_volume)
+    assert len(path.limit_points) == 0
+
+
+def test_at_the_same_apex_fold_a_flap_tip_travels_as_far_as_in_the_reflection_model(path):
+    closures = np.linspace(0.1, 0.3, 3)
+    ours = structural_rows(DEMONSTRATOR_ACTUATED, path, closures)
+    theirs = kinematic_rows(DEMONSTRATOR_ACTUATED, closures)
+    assert ours.tip_travel_m == pytest.approx(theirs.tip_travel_m, rel=0.05)
+    assert np.all(np.diff(path.support_travel_m) > 0.0)
+    # The hinge bends harder in the structure than the uniform-hinge rule says.
+    assert np.all(ours.hinge_strain > theirs.hinge_strain)
+
+
+def test_closures_beyond_the_path_are_not_invented(path):
+    rows = structural_rows(DEMONSTRATOR_ACTUATED, path, [0.0, 0.3, 0.4, 1.0])
+    assert np.isfinite(rows.pressure_pa[:2]).all()
+    assert np.isnan(rows.pressure_pa[2:]).all()
+    assert np.isnan(rows.stable_at_pressure[2:]).all()
+
+
+def test_a_pressure_maximum_is_the_last_point_held_by_a_regulator():
+    flags = np.array([True, True, True, False, False, True])
+    zeros = np.zeros(6)
+    path = StructuralPath(
+        pressure_pa=zeros, air_m3=zeros, apex_fold_rad=zeros, support_fold_rad=zeros,
+        fold_along_rad=np.zeros((6, 2)), tip_travel_m=zeros, support_travel_m=zeros,
+        peak_strain={},
+        strain_energy_j=zeros, stable_at_pressure=flags, stable_at_volume=flags,
+        ended='closed', node_count=10, moulding_energy_j=0.0)
+    assert list(path.limit_points) == [2]
