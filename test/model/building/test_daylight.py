@@ -16,8 +16,14 @@ FAST = ('-ab', '3', '-ad', '4096', '-lw', '1e-5')
 #: first overcast office hour of the Phoenix TMY3, 15 Jan 11-12 h: at most 10.9 %).
 OVERCAST_TOLERANCE = 0.2
 
+#: The year model's matrices: FAST with four times the ambient divisions. With FAST's 4,096
+#: the matrices' mean at closure 0 (little light, nearly all of it interreflected) scattered
+#: over 827-930 lx between runs against rtrace's 792-814 lx, so the sunny-hour check failed
+#: now and then; with 16,384 it was 848-860 lx over three runs (measured 2026-12-06).
+MODEL_PARAMS = ('-ab', '3', '-ad', '16384', '-lw', '1e-5')
 #: The mean work-plane illuminance of a sunny hour by matrices against rtrace with the sun
-#: at its exact place, FAST parameters (measured: within 1 % at closure 1, 5 % at 0).
+#: at its exact place (measured with MODEL_PARAMS: within 1 % at closure 1, 6-8 % above
+#: rtrace at closure 0).
 SUNNY_MEAN_TOLERANCE = 0.12
 #: Sensors in the sun (over 1000 lx of it): relative difference (measured: at most 4 %).
 SUNLIT_TOLERANCE = 0.1
@@ -95,7 +101,8 @@ def skies():
 
 @pytest.fixture(scope='module')
 def model(room, facade):
-    return daylight.DaylightModel(room, facade, states=(0.0, 1.0), spacing_m=1.2, params=FAST)
+    return daylight.DaylightModel(room, facade, states=(0.0, 1.0), spacing_m=1.2,
+                                  params=MODEL_PARAMS)
 
 
 def test_the_matrix_method_matches_rtrace_under_an_overcast_sky(scenes, sensors, skies):
