@@ -170,10 +170,9 @@ def mould_prefold(panel_sheet, prefold_rad):
         from isometric the mould is (it is stress-free by construction).
     """
     sheet = panel_sheet.sheet
-    if prefold_rad == 0.0:
-        system = SheetSystem(sheet)
-        return sheet, system.reference[system.free].copy(), 0.0
     system = SheetSystem(sheet)
+    if prefold_rad == 0.0:
+        return sheet, system.reference[system.free].copy(), 0.0
     xy = sheet.reference_xy_m[sheet.triangles]
     centroid = xy.mean(axis=1)
     geometry = panel_sheet.geometry
@@ -185,7 +184,7 @@ def mould_prefold(panel_sheet, prefold_rad):
     # arches the mid-rib to, so that arching the mid-rib folds them further (closing).
     curvature = np.where(sheet.zone == HINGE, -prefold_rad / geometry.hinge_width_m, 0.0)
     target = curvature[:, None, None] * np.einsum('mi,mj->mij', outward, outward)
-    basis = system.bending._shape_basis
+    basis = system.bending.shape_basis
     matrix = np.stack([basis[:, :, 0, 0], basis[:, :, 0, 1], basis[:, :, 1, 1]], axis=1)
     rhs = np.stack([target[:, 0, 0], target[:, 0, 1], target[:, 1, 1]], axis=1)
     rest = np.linalg.solve(matrix, rhs[:, :, None])[:, :, 0]
@@ -221,7 +220,6 @@ def fold_angles_rad(panel_sheet, positions_m):
     """
     grid = panel_sheet.grid
     inner, outer = panel_sheet.inner_row, panel_sheet.outer_row
-    columns = grid.shape[0] - 1
     normals = []
     for row in (inner - 1, outer):
         # The two triangles of each cell in that row, averaged: a cell normal.
@@ -234,15 +232,18 @@ def fold_angles_rad(panel_sheet, positions_m):
     # The flap's outer edge above or below the mid-rib face's plane gives the sign.
     rise = np.einsum('ij,ij->i', positions_m[grid[:-1, -1]] + positions_m[grid[1:, -1]]
                      - positions_m[grid[:-1, inner]] - positions_m[grid[1:, inner]], rib)
-    del columns
     return np.sign(rise) * np.arccos(cosine)
 
 
 def apex_fold_angle_rad(panel_sheet, positions_m):
     """Fold angle at mid-span [rad]: the mean of the two columns of cells beside it."""
-    angles = fold_angles_rad(panel_sheet, positions_m)
-    middle = len(angles) // 2
-    return float(0.5 * (angles[middle - 1] + angles[middle]))
+    return float(_apex(fold_angles_rad(panel_sheet, positions_m)))
+
+
+def _apex(folds):
+    """Mean of the two columns of cells beside mid-span, along the last axis of ``folds``."""
+    middle = folds.shape[-1] // 2
+    return 0.5 * (folds[..., middle - 1] + folds[..., middle])
 
 
 @dataclass(frozen=True)
@@ -344,7 +345,6 @@ def structural_path(panel, mesh=PanelMesh(), target_fold_rad=None, steps=24,
 def _path_from_points(panel_sheet, sheet, points, ended, moulding_energy):
     system = SheetSystem(sheet)
     folds = np.array([fold_angles_rad(panel_sheet, p.positions_m) for p in points])
-    middle = folds.shape[1] // 2
     tip = np.array([p.positions_m[panel_sheet.tip_node] for p in points])
     slider = panel_sheet.grid[-1, panel_sheet.grid.shape[1] // 2]
     half_thickness = 0.5 * sheet.thickness_m
@@ -359,7 +359,7 @@ def _path_from_points(panel_sheet, sheet, points, ended, moulding_energy):
     return StructuralPath(
         pressure_pa=np.array([p.pressure_pa for p in points]),
         air_m3=np.array([p.volume_m3 - points[0].volume_m3 for p in points]),
-        apex_fold_rad=0.5 * (folds[:, middle - 1] + folds[:, middle]),
+        apex_fold_rad=_apex(folds),
         support_fold_rad=0.5 * (folds[:, 0] + folds[:, -1]),
         fold_along_rad=folds,
         tip_travel_m=np.linalg.norm(tip - tip[0], axis=1),

@@ -150,7 +150,6 @@ class SheetSystem:
         self.bending = MidEdgeBending(sheet.reference_xy_m, sheet.triangles,
                                       sheet.plate_stiffness_nm, sheet.poisson_ratio,
                                       sheet.rest_tilt_sine)
-        self.bending.set_shape_basis(sheet.reference_xy_m)
         self.loaded_triangles = sheet.triangles[np.asarray(sheet.loaded, dtype=bool)]
         nodes = sheet.node_count
         position_dofs = 3 * nodes
@@ -277,14 +276,19 @@ def factorise(matrix):
     partial pivoting is tried before giving up.
     """
     try:
-        factor = splu(matrix, permc_spec='MMD_AT_PLUS_A', diag_pivot_thresh=0.0,
-                      options={'SymmetricMode': True})
+        factor = _symmetric_lu(matrix)
         probe = np.ones(matrix.shape[0])
         if np.all(np.isfinite(factor.solve(probe))):
             return factor
     except RuntimeError:
         pass
     return splu(matrix)
+
+
+def _symmetric_lu(matrix):
+    """Factorise in SuperLU's symmetric mode: minimum degree on ``A + A^T``, diagonal pivots."""
+    return splu(matrix, permc_spec='MMD_AT_PLUS_A', diag_pivot_thresh=0.0,
+                options={'SymmetricMode': True})
 
 
 class _Group:
@@ -342,8 +346,7 @@ def tangent_inertia(system, values, pressure):
     """
     matrix = system.hessians(values, pressure)
     try:
-        factor = splu(matrix, permc_spec='MMD_AT_PLUS_A', diag_pivot_thresh=0.0,
-                      options={'SymmetricMode': True})
+        factor = _symmetric_lu(matrix)
     except RuntimeError:
         return None
     if not np.array_equal(factor.perm_r, factor.perm_c):

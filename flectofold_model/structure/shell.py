@@ -55,7 +55,6 @@ class MidEdgeBending:
         self.edge_count = len(unique)
         edge = edge.reshape(count, 3)
         self.edges = edge
-        owner = np.repeat(np.arange(count), 3).reshape(count, 3)
         uses = np.bincount(edge.ravel(), minlength=self.edge_count)
         if np.any(uses > 2):
             raise ValueError('an edge is shared by more than two faces')
@@ -72,12 +71,13 @@ class MidEdgeBending:
         partner[order[pair]] = order[pair + 1]
         partner[order[pair + 1]] = order[pair]
         wing = faces.ravel().copy()
-        corner = np.tile(np.arange(3), count)
         has = partner >= 0
         wing[has] = faces.ravel()[partner[has]]
-        del owner, corner
         self.wings = np.where(self.interior, wing.reshape(count, 3), faces)
-        self.quadratic = _face_quadratic(np.asarray(reference_xy_m)[faces], plate_stiffness_nm,
+        corners = np.asarray(reference_xy_m)[faces]
+        self.shape_basis = _shape_basis(corners)
+        """``I^-1 B_i`` per face ``(m, 3, 2, 2)``: the shape operator per unit ``sin(beta_i)``."""
+        self.quadratic = _face_quadratic(corners, self.shape_basis, plate_stiffness_nm,
                                          poisson_ratio)
         self.stencil = np.concatenate([faces, self.wings], axis=1)
 
@@ -167,14 +167,10 @@ class MidEdgeBending:
         strains the laminate.
         """
         sine = self.tilt_sine(local) - (self.rest_sine if from_rest else 0.0)
-        shape = np.einsum('mi,mijk->mjk', sine, self._shape_basis)
+        shape = np.einsum('mi,mijk->mjk', sine, self.shape_basis)
         values = np.linalg.eigvals(shape).real
         order = np.argsort(-np.abs(values), axis=1)
         return np.take_along_axis(values, order, axis=1)
-
-    def set_shape_basis(self, reference_xy_m):
-        """Keep ``I^-1 B_i``, the shape operator per unit ``sin(beta_i)``, for curvatures."""
-        self._shape_basis = _shape_basis(np.asarray(reference_xy_m)[self.faces])
 
 
 def _shape_basis(corners):
@@ -197,12 +193,14 @@ def _shape_basis(corners):
     return np.einsum('mab,mibc->miac', np.linalg.inv(metric), basis)
 
 
-def _face_quadratic(corners, plate_stiffness_nm, poisson_ratio):
-    """``M`` per face ``(m, 3, 3)`` with the face's energy ``sin(beta)^T M sin(beta)`` [J]."""
+def _face_quadratic(corners, shape, plate_stiffness_nm, poisson_ratio):
+    """``M`` per face ``(m, 3, 3)`` with the face's energy ``sin(beta)^T M sin(beta)`` [J].
+
+    ``shape`` is :func:`_shape_basis` of the same corners.
+    """
     e1 = corners[:, 1] - corners[:, 0]
     e2 = corners[:, 2] - corners[:, 0]
     area = 0.5 * (e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0])
-    shape = _shape_basis(corners)
     trace = np.einsum('miaa->mi', shape)
     product = np.einsum('miab,mjba->mij', shape, shape)
     nu = np.asarray(poisson_ratio)[:, None, None]
