@@ -1,6 +1,7 @@
-"""Structural model of the quad panel: presets against the reflection model, mesh, CPU.
+"""Structural model of the panels: presets against the reflection model, mesh, CPU.
 
-Run with ``.venv/bin/python bench/bench_structure.py [--meshes] [--presets NAME ...]``.
+Run with ``.venv/bin/python bench/bench_structure.py [--meshes] [--presets NAME ...]
+[--hexagon]``.
 Everything printed is computed here; CPU is process time of this process.
 
 * ``--presets``: each preset's structural path on the default mesh beside the reflection model
@@ -9,6 +10,12 @@ Everything printed is computed here; CPU is process time of this process.
 * ``--meshes``: the demonstrator on three meshes (four with ``--finest``), each count doubled
   from the one before; pressure and tip travel at fixed apex folds and the change per
   refinement.
+* ``--trends``: the demonstrator's apex fold at a set pressure as hinge width, hinge modulus
+  and flap modulus change one at a time (the trends Muehlich et al., Biomimetics 6(3):43,
+  2021, state for elastomer-GFRP hinges: the fold rises as material stiffness falls and as
+  hinge width grows, and does not depend on flap stiffness).
+* ``--hexagon``: the hexagonal module on the coarse and default meshes (and the fine one with
+  ``--finest``): where its path goes and ends, against the reflection model at the same air.
 """
 
 import argparse
@@ -20,9 +27,10 @@ import numpy as np
 
 from flectofold_model import PROTOTYPE
 from flectofold_model.actuation import (DEMONSTRATOR_ACTUATED, FLECTOLINE_ACTUATED,
-                                        radius_study, StripCushion)
+                                        HEXAGON_ACTUATED, radius_study, StripCushion)
 from flectofold_model.actuation.statics import actuated_like
 from flectofold_model.structure.comparison import kinematic_rows, structural_rows
+from flectofold_model.structure.hexagon import hexagon_structural_path, HexagonMesh
 from flectofold_model.structure.panel import PanelMesh, structural_path
 
 CLOSURES = np.array([0.25, 0.5, 0.75, 1.0])
@@ -104,12 +112,83 @@ def meshes(factors):
         previous = pressure
 
 
+def trends(pressure_pa=1500.0):
+    base = DEMONSTRATOR_ACTUATED
+    geometry = base.geometry
+
+    def hinge_width(width):
+        return actuated_like(dataclasses.replace(geometry, hinge_width_m=width), base)
+
+    variants = [
+        ('baseline (hinge 30 mm, 2 GPa; flaps 20 GPa)', base),
+        ('hinge width 20 mm', hinge_width(0.02)), ('hinge width 25 mm', hinge_width(0.025)),
+        ('hinge modulus 1 GPa', dataclasses.replace(
+            base, hinge=dataclasses.replace(base.hinge, youngs_modulus_pa=1e9))),
+        ('hinge modulus 4 GPa', dataclasses.replace(
+            base, hinge=dataclasses.replace(base.hinge, youngs_modulus_pa=4e9))),
+        ('flap modulus 10 GPa', dataclasses.replace(
+            base, flap=dataclasses.replace(base.flap, youngs_modulus_pa=1e10))),
+        ('flap modulus 40 GPa', dataclasses.replace(
+            base, flap=dataclasses.replace(base.flap, youngs_modulus_pa=4e10))),
+    ]
+    mesh = PanelMesh(40, 4, 2, 4)
+    print(f'== apex fold at {pressure_pa / 1e3:g} kPa, demonstrator, {mesh.columns} columns, '
+          f'{mesh.hinge_rows} hinge rows ==')
+    for name, actuated in variants:
+        path, cpu = cpu_of(lambda: structural_path(actuated, mesh,
+                                                   target_fold_rad=math.radians(50.0)))
+        rising = path.pressure_pa <= pressure_pa
+        fold = (np.interp(pressure_pa, path.pressure_pa, path.apex_fold_rad)
+                if path.pressure_pa.max() >= pressure_pa and np.all(np.diff(path.pressure_pa) > 0)
+                else math.nan)
+        print(f'{name:46s} apex fold {math.degrees(fold):6.2f} deg  ({int(rising.sum())} '
+              f'equilibria below, {cpu:.0f} s CPU)', flush=True)
+
+
+def hexagon(finest):
+    print('== the hexagonal module under its round cushion ==')
+    closures = np.linspace(0.0, 1.0, 201)
+    theirs = kinematic_rows(HEXAGON_ACTUATED, closures)
+    meshes = [HexagonMesh(24, 6, 2, 3), HexagonMesh()]
+    if finest:
+        meshes.append(HexagonMesh(96, 24, 8, 12))
+    for mesh in meshes:
+        path, cpu = cpu_of(lambda: hexagon_structural_path(HEXAGON_ACTUATED, mesh))
+        print(f'{mesh.columns} rays per sector, hinge rows {mesh.hinge_rows}: '
+              f'{path.node_count} nodes, {len(path.pressure_pa) - 1} equilibria, '
+              f'{cpu:.1f} s CPU', flush=True)
+        print('   air [L]  p [Pa]  apex fold [deg]  at vertices [deg]  tip [mm]  '
+              'vertex in [mm]  held | reflection model at that air: closure  fold [deg]  '
+              'p [Pa]  tip [mm]')
+        for i in range(0, len(path.pressure_pa), max(1, len(path.pressure_pa) // 10)):
+            air = path.air_m3[i]
+            closure = np.interp(air, theirs.air_m3, closures)
+            at = (lambda values: np.interp(air, theirs.air_m3, values))
+            print(f'   {air * 1e3:7.2f} {path.pressure_pa[i]:7.1f} '
+                  f'{math.degrees(path.apex_fold_rad[i]):16.2f} '
+                  f'{math.degrees(path.support_fold_rad[i]):18.2f} '
+                  f'{path.tip_travel_m[i] * 1e3:9.1f} {path.support_travel_m[i] * 1e3:15.3f}  '
+                  f'{"yes" if path.stable_at_pressure[i] else "no ":>4} | '
+                  f'{closure:38.3f} {math.degrees(at(theirs.apex_fold_rad)):10.1f} '
+                  f'{at(theirs.pressure_pa):7.0f} {at(theirs.tip_travel_m) * 1e3:9.1f}')
+        for index in path.limit_points:
+            print(f'   pressure maximum {path.pressure_pa[index]:.1f} Pa at '
+                  f'{path.air_m3[index] * 1e3:.2f} L, apex fold '
+                  f'{math.degrees(path.apex_fold_rad[index]):.2f} deg')
+        print(f'   ended: {path.ended}; peak strains hinge '
+              f'{path.peak_strain["hinge"].max() * 100:.2f} %, central part '
+              f'{path.peak_strain["midrib"].max() * 100:.2f} %, flap '
+              f'{path.peak_strain["flap"].max() * 100:.2f} %', flush=True)
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument('--meshes', action='store_true')
     parser.add_argument('--finest', action='store_true',
                         help='with --meshes, also 160 columns and 8 hinge rows (an hour or more)')
     parser.add_argument('--presets', nargs='*')
+    parser.add_argument('--hexagon', action='store_true')
+    parser.add_argument('--trends', action='store_true')
     options = parser.parse_args()
     if options.presets is not None:
         chosen = presets()
@@ -117,6 +196,10 @@ def main():
             compare(name, chosen[name], PanelMesh())
     if options.meshes:
         meshes((1, 2, 4, 8) if options.finest else (1, 2, 4))
+    if options.trends:
+        trends()
+    if options.hexagon:
+        hexagon(options.finest)
 
 
 if __name__ == '__main__':

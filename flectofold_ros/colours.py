@@ -2,7 +2,8 @@
 
 A panel is coloured by closure on one ramp, open (0) sand to closed (1) deep blue-green, red
 for a latched fault and grey before its first state (or, coloured by pressure, without a
-reading). Colours are uint8 RGBA.
+reading). The structural sheet is coloured by strain against the allowable strain
+(:func:`strain_colours`). Colours are uint8 RGBA.
 """
 
 import numpy as np
@@ -23,6 +24,32 @@ def ramp_colours(fractions):
     position = np.clip(np.asarray(fractions, dtype=float), 0.0, 1.0) * (len(_RAMP) - 1)
     low = np.minimum(position.astype(int), len(_RAMP) - 2)
     rgb = _RAMP[low] + (position - low)[..., None] * (_RAMP[low + 1] - _RAMP[low])
+    rgba = np.full(position.shape + (4,), 255, dtype=np.uint8)
+    rgba[..., :3] = np.round(rgb)
+    return rgba
+
+
+#: Strain ramp: none (green), the allowable (amber), ten times the allowable and more (red).
+_STRAIN_RAMP = np.array([[46, 139, 87], [240, 190, 40], [200, 30, 30]], dtype=float)
+#: Multiple of the allowable strain at which the strain ramp reaches its red end.
+STRAIN_RED_MULTIPLE = 10.0
+
+
+def strain_colours(strain, allowable_strain):
+    """(N, 4) uint8 RGBA of surface strains against the allowable strain.
+
+    Linear from green (no strain) to amber at the allowable, then on a logarithmic scale to
+    red at :data:`STRAIN_RED_MULTIPLE` times the allowable and beyond.
+    """
+    if not allowable_strain > 0.0:
+        raise ValueError(f'allowable_strain must be positive, got {allowable_strain!r}')
+    ratio = np.abs(np.asarray(strain, dtype=float)) / allowable_strain
+    position = np.where(ratio <= 1.0, ratio, 1.0 + np.log(np.maximum(ratio, 1.0))
+                        / np.log(STRAIN_RED_MULTIPLE))
+    position = np.clip(position, 0.0, 2.0)
+    low = np.minimum(position.astype(int), 1)
+    rgb = _STRAIN_RAMP[low] + (position - low)[..., None] * (_STRAIN_RAMP[low + 1]
+                                                             - _STRAIN_RAMP[low])
     rgba = np.full(position.shape + (4,), 255, dtype=np.uint8)
     rgba[..., :3] = np.round(rgb)
     return rgba

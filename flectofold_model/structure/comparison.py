@@ -10,8 +10,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from flectofold_model.actuation.hexagon_statics import (HexagonActuatedPanel,
+                                                        HexagonActuationModel)
 from flectofold_model.actuation.statics import ActuationModel
-from flectofold_model.actuation.strain import panel_strain
+from flectofold_model.actuation.strain import hexagon_panel_strain, panel_strain
 
 
 @dataclass(frozen=True)
@@ -40,12 +42,20 @@ class ClosureRows:
     """Whether a pressure regulator holds the closure (structural only)."""
 
 
+def _models(actuated):
+    """Return the energy statics and the strain rule of the panel's kind."""
+    if isinstance(actuated, HexagonActuatedPanel):
+        return HexagonActuationModel, hexagon_panel_strain
+    return ActuationModel, panel_strain
+
+
 def kinematic_rows(actuated, closures):
-    """Read the reflection model with its energy statics at ``closures``."""
+    """Read the reflection model with its energy statics at ``closures`` (quad or hexagon)."""
     closures = np.asarray(closures, dtype=np.float64)
-    model = ActuationModel([actuated] * len(closures))
+    statics, strain_rule = _models(actuated)
+    model = statics([actuated] * len(closures))
     state = model.fold.state_from_closure(closures)
-    strain = panel_strain([actuated] * len(closures), closures)
+    strain = strain_rule([actuated] * len(closures), closures)
     air = (model.cushion_volume_m3(state.shape_parameter)
            - model.cushion_volume_m3(model.fold.open_shape))
     return ClosureRows(closures, state.apex_fold_angle_rad, model.pressure_from_closure(closures),
@@ -56,7 +66,7 @@ def kinematic_rows(actuated, closures):
 def structural_rows(actuated, path, closures):
     """Read a :class:`~.panel.StructuralPath` at the closures of the kinematic map."""
     closures = np.asarray(closures, dtype=np.float64)
-    model = ActuationModel([actuated])
+    model = _models(actuated)[0]([actuated])
     opened = float(model.fold.open_fold_angle_rad[0])
     closed = float(model.fold.closed_fold_angle_rad[0])
     target = opened + closures * (closed - opened)

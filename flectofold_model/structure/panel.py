@@ -34,7 +34,8 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from flectofold_model.structure.sheet import Sheet, SheetSystem, solve_prescribed
+from flectofold_model.structure.sheet import (PathError, Sheet, SheetSystem,
+                                              solve_prescribed)
 
 #: Zone labels of the panel's triangles.
 MIDRIB, HINGE, FLAP = 0, 1, 2
@@ -44,6 +45,10 @@ MOULD_ATTEMPTS, MOULD_TOLERANCE = 6, 0.005
 
 #: Steps in which the moulded pre-fold is raised from flat.
 MOULD_STEPS = 2
+
+#: Air, as a multiple of the reflection model's air to close, after which a path that has not
+#: closed ends (the prototype's structure closes with 1.5 times it).
+AIR_LIMIT_FACTOR = 2.0
 
 
 @dataclass(frozen=True)
@@ -91,6 +96,36 @@ class PanelSheet:
     geometry: object
     """The :class:`~..kinematics.panel.PanelGeometry` meshed."""
 
+    @property
+    def hinge_width_m(self):
+        """Width of the hinge bands [m]."""
+        return self.geometry.hinge_width_m
+
+    def outward_xy(self, points_xy_m):
+        """In-plane unit normal of the nearer drawn fold line at points, away from the axis."""
+        geometry = self.geometry
+        centre_y = np.sign(points_xy_m[:, 1]) * (
+            geometry.midrib_width_m / 2 - geometry.fold_radius_m)
+        outward = np.column_stack([points_xy_m[:, 0], points_xy_m[:, 1] - centre_y])
+        return outward / np.linalg.norm(outward, axis=1, keepdims=True)
+
+    def fold_angles_rad(self, positions_m):
+        """Fold angle across the upper hinge band at each column of cells [rad]."""
+        return band_fold_angles_rad(self.grid, self.inner_row, self.outer_row, positions_m)
+
+    def apex_fold_rad(self, folds):
+        """Fold at mid-span: the mean of the two columns of cells beside it (last axis)."""
+        return _middle(folds)
+
+    def support_fold_rad(self, folds):
+        """Fold in the cells next to the supports, mean of both ends (last axis)."""
+        return 0.5 * (folds[..., 0] + folds[..., -1])
+
+    def support_travel_m(self, open_positions_m, positions_m):
+        """Travel of the sliding support C toward B since the open state [m]."""
+        slider = self.grid[-1, self.grid.shape[1] // 2]
+        return float(open_positions_m[slider, 0] - positions_m[slider, 0])
+
 
 def build_panel_sheet(panel, mesh=PanelMesh()):
     """Mesh an :class:`~..actuation.statics.ActuatedPanel` into a flat :class:`PanelSheet`."""
@@ -118,7 +153,7 @@ def build_panel_sheet(panel, mesh=PanelMesh()):
     rows = y.shape[1] - 1
     grid = np.arange((mesh.columns + 1) * (rows + 1)).reshape(mesh.columns + 1, rows + 1)
     xy = np.column_stack([np.repeat(x, rows + 1), y.ravel()])
-    triangles, row_of = _checker_triangles(grid)
+    triangles, row_of = checker_triangles(grid)
     half = rows // 2
     distance = np.abs(row_of - half + 0.5) + 0.5
     zone = np.where(distance <= mesh.midrib_rows, MIDRIB,
@@ -142,7 +177,7 @@ def build_panel_sheet(panel, mesh=PanelMesh()):
                       int(grid[mesh.columns // 2, -1]), geometry)
 
 
-def _checker_triangles(grid):
+def checker_triangles(grid):
     """Counter-clockwise triangles of a structured grid, diagonals in a checker pattern."""
     columns, rows = grid.shape[0] - 1, grid.shape[1] - 1
     i, j = np.meshgrid(np.arange(columns), np.arange(rows), indexing='ij')
@@ -173,16 +208,10 @@ def mould_prefold(panel_sheet, prefold_rad):
     system = SheetSystem(sheet)
     if prefold_rad == 0.0:
         return sheet, system.reference[system.free].copy(), 0.0
-    xy = sheet.reference_xy_m[sheet.triangles]
-    centroid = xy.mean(axis=1)
-    geometry = panel_sheet.geometry
-    # In-plane unit normal of the drawn arc, pointing away from the axis, at each centroid.
-    centre_y = np.sign(centroid[:, 1]) * (geometry.midrib_width_m / 2 - geometry.fold_radius_m)
-    outward = np.column_stack([centroid[:, 0], centroid[:, 1] - centre_y])
-    outward /= np.linalg.norm(outward, axis=1, keepdims=True)
+    outward = panel_sheet.outward_xy(sheet.reference_xy_m[sheet.triangles].mean(axis=1))
     # Negative about the outward normal: the flaps rise toward +z, the side the cushion
     # arches the mid-rib to, so that arching the mid-rib folds them further (closing).
-    curvature = np.where(sheet.zone == HINGE, -prefold_rad / geometry.hinge_width_m, 0.0)
+    curvature = np.where(sheet.zone == HINGE, -prefold_rad / panel_sheet.hinge_width_m, 0.0)
     target = curvature[:, None, None] * np.einsum('mi,mj->mij', outward, outward)
     basis = system.bending.shape_basis
     matrix = np.stack([basis[:, :, 0, 0], basis[:, :, 0, 1], basis[:, :, 1, 1]], axis=1)
@@ -197,11 +226,16 @@ def mould_prefold(panel_sheet, prefold_rad):
     for attempt in range(MOULD_STEPS + MOULD_ATTEMPTS):
         scale = scales[attempt] if attempt < MOULD_STEPS else scale * prefold_rad / achieved
         folded = replace(sheet, rest_tilt_sine=np.clip(scale * rest, -1.0, 1.0))
-        first = solve_prescribed(folded, held, held, guess_unknowns=guess)
+        try:
+            first = solve_prescribed(folded, held, held, guess_unknowns=guess)
+        except PathError as error:
+            raise ValueError(f'could not mould the pre-fold {prefold_rad:g} rad on this mesh: '
+                             f'{error}') from None
         guess = first.unknowns
         if attempt + 1 >= MOULD_STEPS:
-            achieved = apex_fold_angle_rad(panel_sheet, first.positions_m)
-            if abs(achieved - prefold_rad) <= MOULD_TOLERANCE * prefold_rad:
+            achieved = float(panel_sheet.apex_fold_rad(
+                panel_sheet.fold_angles_rad(first.positions_m)))
+            if abs(achieved - prefold_rad) <= MOULD_TOLERANCE * abs(prefold_rad):
                 break
     else:
         raise ValueError(f'could not mould the pre-fold {prefold_rad:g} rad: the unloaded '
@@ -212,16 +246,17 @@ def mould_prefold(panel_sheet, prefold_rad):
     return moulded, first.unknowns, first.membrane_energy_j
 
 
-def fold_angles_rad(panel_sheet, positions_m):
-    """Fold angle across the upper hinge band at each column of cells ``(columns,)`` [rad].
+def band_fold_angles_rad(grid, inner_row, outer_row, positions_m):
+    """Fold angle across a hinge band at each column of cells ``(columns,)`` [rad].
 
-    From the normal of the mid-rib face next to the band's inner edge to that of the flap face
-    next to its outer edge; positive when the flap has turned toward ``+z`` (closing).
+    ``grid`` holds node indices ``(columns + 1, rows + 1)`` with rows running from the driven
+    part (mid-rib, central part) across the band to the flap, columns and rows a right-handed
+    pair in the flat sheet. The fold is the angle from the normal of the driven part's cell next
+    to the band's inner edge to that of the flap's cell next to its outer edge; positive when
+    the flap has turned toward ``+z`` (closing).
     """
-    grid = panel_sheet.grid
-    inner, outer = panel_sheet.inner_row, panel_sheet.outer_row
     normals = []
-    for row in (inner - 1, outer):
+    for row in (inner_row - 1, outer_row):
         # The two triangles of each cell in that row, averaged: a cell normal.
         a, b = grid[:-1, row], grid[1:, row]
         c, d = grid[1:, row + 1], grid[:-1, row + 1]
@@ -229,19 +264,29 @@ def fold_angles_rad(panel_sheet, positions_m):
         normals.append(normal / np.linalg.norm(normal, axis=1, keepdims=True))
     rib, flap = normals
     cosine = np.clip(np.einsum('ij,ij->i', rib, flap), -1.0, 1.0)
-    # The flap's outer edge above or below the mid-rib face's plane gives the sign.
+    # The flap's outer edge above or below the driven part's plane gives the sign.
     rise = np.einsum('ij,ij->i', positions_m[grid[:-1, -1]] + positions_m[grid[1:, -1]]
-                     - positions_m[grid[:-1, inner]] - positions_m[grid[1:, inner]], rib)
+                     - positions_m[grid[:-1, inner_row]] - positions_m[grid[1:, inner_row]],
+                     rib)
     return np.sign(rise) * np.arccos(cosine)
 
 
+def fold_angles_rad(panel_sheet, positions_m):
+    """Fold angle across the upper hinge band at each column of cells ``(columns,)`` [rad].
+
+    From the normal of the mid-rib face next to the band's inner edge to that of the flap face
+    next to its outer edge; positive when the flap has turned toward ``+z`` (closing).
+    """
+    return panel_sheet.fold_angles_rad(positions_m)
+
+
 def apex_fold_angle_rad(panel_sheet, positions_m):
-    """Fold angle at mid-span [rad]: the mean of the two columns of cells beside it."""
-    return float(_apex(fold_angles_rad(panel_sheet, positions_m)))
+    """Fold angle at the apex (mid-span) [rad]."""
+    return float(panel_sheet.apex_fold_rad(panel_sheet.fold_angles_rad(positions_m)))
 
 
-def _apex(folds):
-    """Mean of the two columns of cells beside mid-span, along the last axis of ``folds``."""
+def _middle(folds):
+    """Mean of the two columns of cells beside the middle, along the last axis of ``folds``."""
     middle = folds.shape[-1] // 2
     return 0.5 * (folds[..., middle - 1] + folds[..., middle])
 
@@ -261,13 +306,14 @@ class StructuralPath:
     """Fold angle across the hinge band at mid-span [rad]."""
     support_fold_rad: np.ndarray
     """Fold angle across the hinge band in the cells next to the supports, mean of both
-    ends [rad]."""
+    ends [rad] (hexagon: next to the triangle's vertices)."""
     fold_along_rad: np.ndarray
     """Fold angle at every column of cells ``(points, columns)`` [rad]."""
     tip_travel_m: np.ndarray
-    """Distance flap tip A moved from the open state [m]."""
+    """Distance flap tip A (hexagon: flap tip H_0) moved from the open state [m]."""
     support_travel_m: np.ndarray
-    """Travel of the sliding support C toward B since the open state [m]."""
+    """Travel of the sliding support C toward B since the open state [m] (hexagon: of each
+    triangle vertex toward the centre)."""
     peak_strain: dict
     """Peak surface strain per zone (``'midrib'``, ``'hinge'``, ``'flap'``): the change of
     curvature from the moulded state times half the thickness plus the membrane strain."""
@@ -279,12 +325,21 @@ class StructuralPath:
     stable_at_volume: np.ndarray
     """True where it holds with the air in the cushion held."""
     ended: str
-    """Why the path ended: ``'closed'`` (the apex fold reached the target) or the solver's
-    reason."""
+    """Why the path ended: ``'closed'`` (the apex fold reached the target), the air limit
+    (:data:`AIR_LIMIT_FACTOR`) or the solver's reason."""
     node_count: int
     """Nodes of the mesh."""
     moulding_energy_j: float
     """Membrane energy the moulded shape would hold on the flat pattern's metric [J]."""
+    positions_m: np.ndarray = None
+    """Node positions at every equilibrium ``(points, nodes, 3)`` [m]."""
+    surface_strain: np.ndarray = None
+    """Peak surface strain of every triangle at every equilibrium ``(points, triangles)``
+    (bending from the moulded state times half the thickness plus the membrane strain)."""
+    triangles: np.ndarray = None
+    """Node indices of the mesh's triangles ``(triangles, 3)``, counter-clockwise."""
+    zone: np.ndarray = None
+    """Zone of each triangle (:data:`MIDRIB`, :data:`HINGE`, :data:`FLAP`)."""
 
     @property
     def limit_points(self):
@@ -311,12 +366,12 @@ def structural_path(panel, mesh=PanelMesh(), target_fold_rad=None, steps=24,
     steps : int
         Volume steps the path aims for up to the target (the step is the kinematic model's air
         to close divided by ``steps``, or ``air_estimate_m3 / steps``); a step is halved when
-        Newton's method needs it.
+        Newton's method needs it. A path that has not closed ends after
+        :data:`AIR_LIMIT_FACTOR` times that air.
     progress : callable, optional
         ``progress(pressure_pa, apex_fold_rad)`` after every equilibrium.
     """
     from flectofold_model.actuation.statics import ActuationModel
-    from flectofold_model.structure.sheet import PathError, trace_path
 
     if target_fold_rad is None or air_estimate_m3 is None:
         model = ActuationModel([panel])
@@ -325,45 +380,68 @@ def structural_path(panel, mesh=PanelMesh(), target_fold_rad=None, steps=24,
         if air_estimate_m3 is None:
             air_estimate_m3 = float(model.cushion_volume_m3(model.fold.closed_shape)[0]
                                     - model.cushion_volume_m3(model.fold.open_shape)[0])
-    panel_sheet = build_panel_sheet(panel, mesh)
-    sheet, start, moulding_energy = mould_prefold(panel_sheet, panel.geometry.prefold_rad)
-    ended = 'closed'
+    return trace_panel_path(build_panel_sheet(panel, mesh), panel.geometry.prefold_rad,
+                            target_fold_rad, air_estimate_m3, steps, tolerance, progress)
+
+
+def trace_panel_path(panel_sheet, prefold_rad, target_fold_rad, air_estimate_m3, steps=24,
+                     tolerance=1e-8, progress=None):
+    """Mould a panel's pre-fold and trace its path until the apex fold reaches the target.
+
+    ``panel_sheet`` is a meshed panel of either kind (:class:`PanelSheet`,
+    :class:`~.hexagon.HexagonSheet`); the other parameters are those of
+    :func:`structural_path`.
+    """
+    from flectofold_model.structure.sheet import trace_path
+
+    sheet, start, moulding_energy = mould_prefold(panel_sheet, prefold_rad)
+    ended = ['closed']
+    air_limit = AIR_LIMIT_FACTOR * air_estimate_m3
     try:
         def reached(point):
             fold = apex_fold_angle_rad(panel_sheet, point.positions_m)
             if progress is not None:
                 progress(point.pressure_pa, fold)
-            return fold >= target_fold_rad
+            if fold >= target_fold_rad:
+                return True
+            if point.volume_m3 - opened >= air_limit:
+                ended[0] = (f'not closed with {air_limit * 1e3:.3g} L of air, '
+                            f'{AIR_LIMIT_FACTOR:g} times what the reflection model needs')
+                return True
+            return False
 
+        opened = SheetSystem(sheet).volume_m3(start)
         points = trace_path(sheet, air_estimate_m3 / steps, reached, max_steps=8 * steps,
                             tolerance=tolerance, start=start)
     except PathError as error:
-        points, ended = error.points, str(error)
-    return _path_from_points(panel_sheet, sheet, points, ended, moulding_energy)
+        points, ended[0] = error.points, str(error)
+    return _path_from_points(panel_sheet, sheet, points, ended[0], moulding_energy)
 
 
 def _path_from_points(panel_sheet, sheet, points, ended, moulding_energy):
     system = SheetSystem(sheet)
-    folds = np.array([fold_angles_rad(panel_sheet, p.positions_m) for p in points])
+    folds = np.array([panel_sheet.fold_angles_rad(p.positions_m) for p in points])
     tip = np.array([p.positions_m[panel_sheet.tip_node] for p in points])
-    slider = panel_sheet.grid[-1, panel_sheet.grid.shape[1] // 2]
     half_thickness = 0.5 * sheet.thickness_m
     zones = {'midrib': MIDRIB, 'hinge': HINGE, 'flap': FLAP}
     peaks = {name: [] for name in zones}
+    strains = []
     for point in points:
         bending = np.abs(system.curvatures_per_m(point.unknowns, from_rest=True)[:, 0])
         membrane = np.abs(system.membrane_strains(point.unknowns)[:, 0])
         surface = bending * half_thickness + membrane
+        strains.append(surface)
         for name, zone in zones.items():
             peaks[name].append(float(surface[sheet.zone == zone].max()))
     return StructuralPath(
         pressure_pa=np.array([p.pressure_pa for p in points]),
         air_m3=np.array([p.volume_m3 - points[0].volume_m3 for p in points]),
-        apex_fold_rad=_apex(folds),
-        support_fold_rad=0.5 * (folds[:, 0] + folds[:, -1]),
+        apex_fold_rad=panel_sheet.apex_fold_rad(folds),
+        support_fold_rad=panel_sheet.support_fold_rad(folds),
         fold_along_rad=folds,
         tip_travel_m=np.linalg.norm(tip - tip[0], axis=1),
-        support_travel_m=np.array([points[0].positions_m[slider, 0] - p.positions_m[slider, 0]
+        support_travel_m=np.array([panel_sheet.support_travel_m(points[0].positions_m,
+                                                                p.positions_m)
                                    for p in points]),
         peak_strain={name: np.array(values) for name, values in peaks.items()},
         strain_energy_j=np.array([p.membrane_energy_j + p.bending_energy_j
@@ -371,4 +449,7 @@ def _path_from_points(panel_sheet, sheet, points, ended, moulding_energy):
                                   for p in points]),
         stable_at_pressure=np.array([bool(p.stable_at_pressure) for p in points]),
         stable_at_volume=np.array([bool(p.stable_at_volume) for p in points]),
-        ended=ended, node_count=sheet.node_count, moulding_energy_j=moulding_energy)
+        ended=ended, node_count=sheet.node_count, moulding_energy_j=moulding_energy,
+        positions_m=np.array([p.positions_m for p in points]),
+        surface_strain=np.array(strains), triangles=np.asarray(sheet.triangles),
+        zone=np.asarray(sheet.zone))

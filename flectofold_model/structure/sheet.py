@@ -12,7 +12,7 @@ not positive definite beyond a limit point).
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.sparse import coo_matrix, csc_matrix
+from scipy.sparse import coo_matrix, csc_matrix, identity
 from scipy.sparse.linalg import splu
 
 from flectofold_model.structure import elements
@@ -21,6 +21,8 @@ from flectofold_model.structure.shell import MidEdgeBending
 
 #: Largest ratio of successive out-of-balance forces for which the factorised tangent is kept.
 REFACTOR_CONTRACTION = 0.2
+#: Halvings of a Newton step of :func:`solve_prescribed` that raises the strain energy.
+LINE_SEARCH_HALVINGS = 12
 
 
 @dataclass(frozen=True)
@@ -285,6 +287,30 @@ def factorise(matrix):
     return splu(matrix)
 
 
+def positive_definite_factor(matrix, max_shifts=20):
+    """Factorise ``matrix + mu I`` with the least ``mu >= 0`` tried that is positive definite.
+
+    ``mu`` is 0 where the tangent is positive definite (Newton's method); otherwise it starts
+    at ``1e-8`` of the largest diagonal entry and grows tenfold (the modified Newton method of
+    energy minimisation: every step then goes downhill, so a solve started near a saddle
+    leaves it toward a stable equilibrium instead of converging onto the unstable one).
+    """
+    scale = float(np.max(np.abs(matrix.diagonal())))
+    shift = 0.0
+    for _ in range(max_shifts):
+        shifted = matrix if shift == 0.0 else (matrix + shift * identity(
+            matrix.shape[0], format='csc')).tocsc()
+        try:
+            factor = _symmetric_lu(shifted)
+        except RuntimeError:
+            factor = None
+        if factor is not None and np.array_equal(factor.perm_r, factor.perm_c) \
+                and np.all(factor.U.diagonal() > 0.0):
+            return factor
+        shift = 1e-8 * scale if shift == 0.0 else 10.0 * shift
+    return factorise(matrix)
+
+
 def _symmetric_lu(matrix):
     """Factorise in SuperLU's symmetric mode: minimum degree on ``A + A^T``, diagonal pivots."""
     return splu(matrix, permc_spec='MMD_AT_PLUS_A', diag_pivot_thresh=0.0,
@@ -547,9 +573,18 @@ def solve_prescribed(sheet, held_positions_m, guess_positions_m, tolerance=1e-10
     start[:position_dofs] = np.asarray(guess_positions_m, dtype=np.float64).ravel()
     values = (start[system.free] if guess_unknowns is None
               else np.asarray(guess_unknowns, dtype=np.float64).copy())
+    energy = sum(system.energies_j(values))
     for iteration in range(1, max_iterations + 1):
         gradient, _ = system.gradients(values)
-        step = factorise(system.hessians(values, 0.0)).solve(-gradient)
+        step = positive_definite_factor(system.hessians(values, 0.0)).solve(-gradient)
+        # Backtracking on the strain energy, which the equilibrium minimises: a full Newton
+        # step from a guess far off (a held coordinate moved) can overshoot into another well.
+        for _ in range(LINE_SEARCH_HALVINGS):
+            trial = sum(system.energies_j(values + step))
+            if trial <= energy + 1e-12 * max(abs(energy), 1.0):
+                break
+            step = 0.5 * step
+        energy = sum(system.energies_j(values + step))
         values = values + step
         moves = step[system.free < position_dofs]
         # With every coordinate held only the edge rotations [rad] move.

@@ -9,6 +9,7 @@ import math
 import sys
 
 import numpy as np
+import rerun as rr
 
 from flectofold_model import DEMONSTRATOR_MODULE, FoldModel, PanelBatch, PROTOTYPE
 from flectofold_model.actuation import actuated_like, DEMONSTRATOR_ACTUATED, StripCushion
@@ -19,7 +20,10 @@ from flectofold_model.kinematics import reflection
 from flectofold_model.kinematics.hexagon import HEXAGON_MODULE, HexagonBatch, HexagonFoldModel
 from flectofold_model.kinematics.hexagon.panel import HexagonPanel
 from flectofold_model.structure.comparison import kinematic_rows, structural_rows
+from flectofold_model.structure.hexagon import hexagon_structural_path, HexagonMesh
 from flectofold_model.structure.panel import PanelMesh, structural_path
+from flectofold_ros.rerun.sinks import check_rrd_path
+from flectofold_ros.rerun.structure_scene import log_structural_path
 from flectofold_ros.runner import run_command
 
 PANELS = {'demonstrator': DEMONSTRATOR_MODULE, 'prototype': PROTOTYPE,
@@ -115,12 +119,15 @@ STRUCTURAL_COLUMNS = (
     ('closure', '{:>7}', '{:7.2f}', '0 open (the pre-fold) ... 1 closed, by apex fold angle'),
     ('fold [deg]', '{:>10}', '{:10.1f}', 'apex fold angle across the hinge band'),
     ('at supports', '{:>11}', '{:11.1f}',
-     'fold angle across the hinge band next to the supports [deg] (structure)'),
+     "fold angle across the hinge band next to the supports (hexagon: the triangle's "
+     'vertices) [deg] (structure)'),
     ('p [kPa]', '{:>7}', '{:7.2f}', 'cushion pressure holding the closure (structure)'),
     ('p refl', '{:>6}', '{:6.2f}', 'the same, energy statics on the reflection model [kPa]'),
     ('air [L]', '{:>7}', '{:7.2f}', 'cushion volume added since open (structure)'),
-    ('air refl', '{:>8}', '{:8.2f}', 'the same, reflection model and strip cushion [L]'),
-    ('tip [mm]', '{:>8}', '{:8.1f}', 'travel of flap tip A since open (structure)'),
+    ('air refl', '{:>8}', '{:8.2f}',
+     'the same, reflection model and its cushion (strip; hexagon: round) [L]'),
+    ('tip [mm]', '{:>8}', '{:8.1f}',
+     'travel of flap tip A (hexagon: H_0) since open (structure)'),
     ('tip refl', '{:>8}', '{:8.1f}', 'the same, reflection model [mm]'),
     ('hinge [%]', '{:>9}', '{:9.2f}', 'peak hinge surface strain (structure)'),
     ('refl', '{:>5}', '{:5.2f}', 'the same, reflection model on the drawn line [%]'),
@@ -131,18 +138,35 @@ STRUCTURAL_COLUMNS = (
 )
 
 
-def structural_fold_table(panel, steps, mesh=PanelMesh()):
-    """Lines of the structural model's table beside the reflection model's, quad panels."""
-    if isinstance(panel, HexagonPanel):
-        raise ValueError('the structural model is built for quad panels only: the hexagon '
-                         'is not meshed yet (msg_docs/structure.md)')
+#: The structural meshes of ``--mesh``, per panel kind.
+STRUCTURAL_MESHES = {
+    'coarse': (PanelMesh(40, 4, 2, 4), HexagonMesh(24, 6, 2, 3)),
+    'default': (PanelMesh(), HexagonMesh()),
+    'fine': (PanelMesh(160, 16, 8, 16), HexagonMesh(96, 24, 8, 12)),
+}
+
+
+def structural_fold_table(panel, steps, mesh=None, rrd_path=None):
+    """Lines of the structural model's table beside the reflection model's, either kind.
+
+    ``mesh`` is a :class:`PanelMesh` for a quad panel, a :class:`HexagonMesh` for a hexagonal
+    one; default the kind's default mesh. ``rrd_path``: also write the path to a Rerun
+    recording there (:mod:`flectofold_ros.rerun.structure_scene`), checked before the path
+    is traced.
+    """
+    if rrd_path is not None:
+        rrd_path = check_rrd_path(rrd_path)
+    hexagon = isinstance(panel, HexagonPanel)
+    if mesh is None:
+        mesh = HexagonMesh() if hexagon else PanelMesh()
     actuated = actuated_preset(panel)
 
     def progress(pressure_pa, apex_fold_rad):
         print(f'fold_table: equilibrium at {pressure_pa / 1e3:.2f} kPa, apex fold '
               f'{math.degrees(apex_fold_rad):.1f} deg', file=sys.stderr, flush=True)
 
-    path = structural_path(actuated, mesh, progress=progress)
+    trace = hexagon_structural_path if hexagon else structural_path
+    path = trace(actuated, mesh, progress=progress)
     closures = np.linspace(0.0, 1.0, steps)
     ours, theirs = structural_rows(actuated, path, closures), kinematic_rows(actuated, closures)
     held = ['-' if np.isnan(value) else ('yes' if value else 'no')
@@ -152,13 +176,7 @@ def structural_fold_table(panel, steps, mesh=PanelMesh()):
                theirs.air_m3 * 1e3, ours.tip_travel_m * 1e3, theirs.tip_travel_m * 1e3,
                ours.hinge_strain * 100, theirs.hinge_strain * 100, ours.midrib_strain * 100,
                ours.flap_strain * 100, held)
-    lines = [
-        f'structural model: panel {panel.length_m:g} m x {panel.width_m:g} m, fold radius '
-        f'{panel.fold_radius_m:g} m, hinge {panel.hinge_width_m * 1e3:.0f} mm; mesh '
-        f'{path.node_count} nodes ({mesh.columns} columns, rows {mesh.midrib_rows} mid-rib / '
-        f'{mesh.hinge_rows} hinge / {mesh.flap_rows} flap per side), '
-        f'{len(path.pressure_pa) - 1} equilibria',
-    ]
+    lines = [_structural_heading(panel, mesh, path)]
     lines += _table(STRUCTURAL_COLUMNS, rows)
     for index in path.limit_points:
         lines.append(f'pressure maximum {path.pressure_pa[index] / 1e3:.2f} kPa at '
@@ -169,7 +187,8 @@ def structural_fold_table(panel, steps, mesh=PanelMesh()):
         lines.append(f'the path reached the closed fold ({reached:.1f} deg)')
     else:
         lines.append(f'the path ended at {reached:.1f} deg apex fold: {path.ended}')
-    if mesh.columns < PanelMesh().columns or mesh.hinge_rows < PanelMesh().hinge_rows:
+    default = HexagonMesh() if hexagon else PanelMesh()
+    if mesh.columns < default.columns or mesh.hinge_rows < default.hinge_rows:
         lines.append('a mesh coarser than the default: its pressure maxima and strains are not '
                      'converged, and too few hinge rows make pressure maxima that finer meshes '
                      'do not have (msg_docs/structure.md)')
@@ -177,7 +196,31 @@ def structural_fold_table(panel, steps, mesh=PanelMesh()):
     worst = float(np.max(path.peak_strain['hinge']))
     lines.append(f'peak hinge strain on the path {worst * 100:.2f} % against an allowable '
                  f'{allowable * 100:.1f} % ({worst / allowable:.1f} x)')
+    if rrd_path is not None:
+        recording = rr.RecordingStream('flectofold_structure')
+        recording.set_sinks(rr.FileSink(str(rrd_path)))
+        log_structural_path(recording, path, allowable)
+        recording.flush()
+        recording.disconnect()
+        lines.append(f'Rerun recording {rrd_path}: the sheet at {len(path.pressure_pa)} '
+                     f'equilibria, coloured by strain against the allowable')
     return lines
+
+
+def _structural_heading(panel, mesh, path):
+    """Return the structural table's first line: the panel, its mesh, the path's length."""
+    count = f'{path.node_count} nodes'
+    if isinstance(panel, HexagonPanel):
+        return (f'structural model: hexagonal panel, circumradius {panel.circumradius_m:g} m, '
+                f'fold-line sag {panel.fold_line_sag_m * 1e3:.0f} mm, hinge '
+                f'{panel.hinge_width_m * 1e3:.0f} mm; mesh {count} ({mesh.columns} rays per '
+                f'sector, rows {mesh.centre_rows} central / {mesh.hinge_rows} hinge / '
+                f'{mesh.flap_rows} flap), {len(path.pressure_pa) - 1} equilibria')
+    return (f'structural model: panel {panel.length_m:g} m x {panel.width_m:g} m, fold radius '
+            f'{panel.fold_radius_m:g} m, hinge {panel.hinge_width_m * 1e3:.0f} mm; mesh '
+            f'{count} ({mesh.columns} columns, rows {mesh.midrib_rows} mid-rib / '
+            f'{mesh.hinge_rows} hinge / {mesh.flap_rows} flap per side), '
+            f'{len(path.pressure_pa) - 1} equilibria')
 
 
 def hexagon_fold_table(panel, steps):
@@ -203,6 +246,9 @@ def hexagon_fold_table(panel, steps):
     lines += _table(HEXAGON_COLUMNS, rows)
     lines.append('fold: apex fold angle (the model); vertex in: R - sqrt(R^2 - rise^2); '
                  'amplification: tip travel / rise travelled since open')
+    lines.append('mechanics: on the structural sheet (--model structural) this panel does not '
+                 'fold under its cushion: it rises as one cone and its creases stay nearly '
+                 'flat at the apexes (msg_docs/structure.md)')
     return lines + _strain_lines(actuated)
 
 
@@ -242,7 +288,7 @@ def _legend():
     lines += [f'  {name:<16} {meaning}' for name, _, _, meaning in COLUMNS]
     lines.append('columns, hexagonal panels (hexagon):')
     lines += [f'  {name:<16} {meaning}' for name, _, _, meaning in HEXAGON_COLUMNS]
-    lines.append('columns, --model structural (quad panels):')
+    lines.append('columns, --model structural (either kind):')
     lines += [f'  {name:<16} {meaning}' for name, _, _, meaning in STRUCTURAL_COLUMNS]
     lines.append('a "-" marks a value that is not defined there (amplification at zero travel, '
                  'closures the structural path did not reach)')
@@ -264,20 +310,27 @@ def main(args=None):
     parser.add_argument('--model', choices=('kinematic', 'structural'), default='kinematic',
                         help='kinematic: the reflection model (default); structural: the '
                              'equilibrium path of the GFRP sheet under the cushion beside the '
-                             'reflection model (quad panels; minutes, see --mesh)')
+                             'reflection model (minutes, see --mesh)')
     parser.add_argument('--mesh', choices=('coarse', 'default', 'fine'), default='default',
-                        help='structural mesh: coarse (40 columns, 2 hinge rows: seconds, '
-                             'not converged), default (80 columns, 4 hinge rows: minutes), '
-                             'fine (160 columns, 8 hinge rows: tens of minutes)')
+                        help='structural mesh: coarse (quad 40 columns, hexagon 24 rays per '
+                             'sector, 2 hinge rows: seconds to a minute, not converged), '
+                             'default (80 columns / 48 rays, 4 hinge rows: about 3 minutes, '
+                             'the hexagon 13), fine (160 columns / 96 rays, 8 hinge rows: '
+                             'tens of minutes)')
+    parser.add_argument('--rrd', metavar='OUT.rrd',
+                        help='with --model structural: also write the path to a Rerun '
+                             'recording, the sheet at every equilibrium coloured by its '
+                             'surface strain against the allowable (msg_docs/structure.md)')
     options = parser.parse_args((sys.argv if args is None else args)[1:])
     if options.steps < 2:
         parser.error('--steps must be at least 2')
+    if options.rrd is not None and options.model != 'structural':
+        parser.error('--rrd needs --model structural')
     panel = PANELS[options.panel]
     if options.model == 'structural':
-        mesh = {'coarse': PanelMesh(40, 4, 2, 4), 'default': PanelMesh(),
-                'fine': PanelMesh(160, 16, 8, 16)}[options.mesh]
+        mesh = STRUCTURAL_MESHES[options.mesh][isinstance(panel, HexagonPanel)]
         return run_command('fold_table', lambda stop: print(
-            '\n'.join(structural_fold_table(panel, options.steps, mesh))),
+            '\n'.join(structural_fold_table(panel, options.steps, mesh, options.rrd))),
             interrupted_code=130)
     return run_command('fold_table', lambda stop: print(
         '\n'.join(fold_table(panel, options.steps))), interrupted_code=130)

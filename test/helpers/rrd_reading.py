@@ -16,7 +16,8 @@ PANELS = '/facade/panels'
 class Rrd:
     """The recording of one .rrd file, compacted in memory."""
 
-    def __init__(self, path):
+    def __init__(self, path, timeline=TIMELINE):
+        self.timeline = timeline
         self.reader = rr.chunk.RrdReader(str(path))
         self.store = self.reader.stream().collect()
 
@@ -28,7 +29,8 @@ class Rrd:
             if chunk.entity_path != entity:
                 continue
             batch = chunk.to_record_batch()
-            if component in batch.schema.names and (TIMELINE in batch.schema.names) == temporal:
+            timed = self.timeline in batch.schema.names
+            if component in batch.schema.names and timed == temporal:
                 yield batch
 
     def rows(self, entity, component):
@@ -39,7 +41,7 @@ class Rrd:
         """
         rows = []
         for batch in self._batches(entity, component, temporal=True):
-            times = batch.column(TIMELINE).cast('int64').to_numpy(zero_copy_only=False)
+            times = batch.column(self.timeline).cast('int64').to_numpy(zero_copy_only=False)
             values = batch.column(component).to_pylist()
             order = batch.column(0).to_pylist()  # the row ids: logging order
             rows += [(int(t), o, v) for t, o, v in zip(times, order, values) if v is not None]
@@ -52,7 +54,7 @@ class Rrd:
         """
         rows = []
         for batch in self._batches(entity, component, temporal=True):
-            times = batch.column(TIMELINE).cast('int64').to_numpy(zero_copy_only=False)
+            times = batch.column(self.timeline).cast('int64').to_numpy(zero_copy_only=False)
             order = batch.column(0).to_pylist()
             column = batch.column(component)
             for j in range(len(column)):

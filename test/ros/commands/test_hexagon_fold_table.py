@@ -52,6 +52,9 @@ def test_hexagon_table_is_monotone_and_matches_the_model(capsys, model):
     radius_mm = HEXAGON_MODULE.circumradius_m * 1e3
     np.testing.assert_allclose(vertex, radius_mm - np.sqrt(radius_mm**2 - rise**2), atol=0.002)
     assert math.isnan(amplification[0])  # no rise travelled yet
+    # The structural model's verdict is said where the kinematic table is read.
+    assert any(line.startswith('mechanics: on the structural sheet (--model structural) this '
+                               'panel does not fold under its cushion') for line in lines)
     stroke = rise[1:] - rise[0]
     np.testing.assert_allclose(amplification[1:], travel[1:] / stroke, rtol=0.01, atol=0.05)
 
