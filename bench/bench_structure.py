@@ -14,6 +14,9 @@ Everything printed is computed here; CPU is process time of this process.
   and flap modulus change one at a time (the trends Muehlich et al., Biomimetics 6(3):43,
   2021, state for elastomer-GFRP hinges: the fold rises as material stiffness falls and as
   hinge width grows, and does not depend on flap stiffness).
+* ``--cushion-map``: the demonstrator's plant tables from the energy statics and from the
+  structure (default mesh, cached): closing pressure, air to close, compliance; the CPU of the
+  first (traced) and the second (cached) call.
 * ``--hexagon``: the hexagonal module on the coarse and default meshes (and the fine one with
   ``--finest``): where its path goes and ends, against the reflection model at the same air.
 """
@@ -21,6 +24,8 @@ Everything printed is computed here; CPU is process time of this process.
 import argparse
 import dataclasses
 import math
+import os
+import tempfile
 import time
 
 import numpy as np
@@ -145,6 +150,55 @@ def trends(pressure_pa=1500.0):
               f'equilibria below, {cpu:.0f} s CPU)', flush=True)
 
 
+def cushion_map():
+    from flectofold_model.actuation import ActuationModel, ATMOSPHERIC_PRESSURE_PA
+    from flectofold_model.actuation.cushion_map import CushionMap
+    from flectofold_model.structure.cushion_tables import (CACHE_ENVIRONMENT,
+                                                           structural_cushion_map)
+
+    print("== the demonstrator's cushion map: energy statics against the structure ==")
+    statics, statics_cpu = cpu_of(lambda: CushionMap(ActuationModel([DEMONSTRATOR_ACTUATED])))
+    # A cache of its own, empty: the first call traces the path, the second reads it.
+    with tempfile.TemporaryDirectory() as directory:
+        os.environ[CACHE_ENVIRONMENT] = directory
+        first, first_cpu = cpu_of(lambda: structural_cushion_map([DEMONSTRATOR_ACTUATED]))
+        again, again_cpu = cpu_of(lambda: structural_cushion_map([DEMONSTRATOR_ACTUATED]))
+    assert np.array_equal(first.pressure_pa, again.pressure_pa)
+    for name, table, cpu in (('energy statics', statics, statics_cpu),
+                             ('structure', first, first_cpu), ('structure, cached', again,
+                                                               again_cpu)):
+        pressure, volume = table.pressure_pa[0], table.volume_m3[0]
+        # Free air to close from open: the air mass added, at atmospheric pressure [L].
+        free_air = ((pressure[-1] + ATMOSPHERIC_PRESSURE_PA) * volume[-1]
+                    - ATMOSPHERIC_PRESSURE_PA * volume[0]) / ATMOSPHERIC_PRESSURE_PA
+        half = len(pressure) // 2
+        print(f'{name:18s} p at closure 0.5 / 1: {pressure[half] / 1e3:.2f} / '
+              f'{pressure[-1] / 1e3:.2f} kPa; volume open / closed {volume[0] * 1e3:.2f} / '
+              f'{volume[-1] * 1e3:.2f} L; free air to close {free_air * 1e3:.1f} NL; '
+              f'compliance at 0.5 {table.compliance_m3_per_pa[0, half] * 1e6:.3f} mL/Pa; '
+              f'{cpu:.3f} s CPU', flush=True)
+
+    # The simulated plant and pressure loop of the package on each map: one panel from open
+    # to closure 0.5 and then to 1; time to within 0.01 of the setpoint and free air used.
+    from flectofold_model.control.panel_loops import facade_plant, PanelLoops, SimulatedCushions
+    for name, table in (('energy statics', statics), ('structure', first)):
+        model = ActuationModel([DEMONSTRATOR_ACTUATED])
+        loops = PanelLoops(model, SimulatedCushions(facade_plant(model, table)), 0.1,
+                           cushion_map=table)
+        loops.advance_to(0.0)
+        line, now, start = [], 0.0, 0.0
+        for target in (0.5, 1.0):
+            loops.set_setpoints(np.array([target]))
+            air = float(loops.free_air_used_nl[0])
+            while abs(float(loops.closure[0]) - target) > 0.01 and now - start < 600.0:
+                now += 0.1
+                loops.advance_to(now)
+            line.append(f'to {target:g}: {now - start:.1f} s, '
+                        f'{float(loops.free_air_used_nl[0]) - air:.1f} NL')
+            start = now
+        print(f'{name:18s} plant on the demonstrator circuit: ' + '; '.join(line), flush=True)
+
+
 def hexagon(finest):
     print('== the hexagonal module under its round cushion ==')
     closures = np.linspace(0.0, 1.0, 201)
@@ -189,6 +243,7 @@ def main():
     parser.add_argument('--presets', nargs='*')
     parser.add_argument('--hexagon', action='store_true')
     parser.add_argument('--trends', action='store_true')
+    parser.add_argument('--cushion-map', action='store_true')
     options = parser.parse_args()
     if options.presets is not None:
         chosen = presets()
@@ -198,6 +253,8 @@ def main():
         meshes((1, 2, 4, 8) if options.finest else (1, 2, 4))
     if options.trends:
         trends()
+    if options.cushion_map:
+        cushion_map()
     if options.hexagon:
         hexagon(options.finest)
 

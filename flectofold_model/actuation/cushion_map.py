@@ -31,11 +31,44 @@ class CushionMap:
                             f'got {type(model).__name__}')
         if isinstance(samples, bool) or not isinstance(samples, int) or samples < 3:
             raise ValueError(f'samples must be an integer of at least 3, got {samples!r}')
-        distinct, self.row = _distinct_panels(model.panels)
+        distinct, row = distinct_panels(model.panels)
         source = model if len(distinct) == len(model) else type(model)(
             distinct, quadrature_points=model.quadrature_points)
-        self.closures = np.linspace(0.0, 1.0, samples)
-        self._distinct = _tables(source, self.closures)
+        closures = np.linspace(0.0, 1.0, samples)
+        self._set_tables(_tables(source, closures), row, closures)
+
+    @classmethod
+    def from_tables(cls, tables, row):
+        """Build a map from tables computed elsewhere (the structural model's, say).
+
+        ``tables``: gauge pressure [Pa], cushion volume [m3], compliance dV/dp [m3/Pa] and
+        apex fold angle [rad] of R distinct panels at S closures evenly spaced from 0 to 1, each
+        (R, S); ``row`` (N,): each panel's row. Checked as the computed maps are: finite,
+        pressure rising with closure, volume rising, compliance positive.
+        """
+        arrays = [np.array(table, dtype=np.float64) for table in tables]
+        if len(arrays) != 4 or any(a.ndim != 2 or a.shape != arrays[0].shape for a in arrays):
+            raise ValueError('tables must be four (R, S) arrays: pressure, volume, '
+                             'compliance, fold angle')
+        if arrays[0].shape[1] < 3 or not all(np.all(np.isfinite(a)) for a in arrays):
+            raise ValueError('tables must be finite with at least 3 closures')
+        pressure, volume, compliance, _ = arrays
+        if np.any(np.diff(pressure, axis=1) <= 0):
+            raise ValueError('the pressure map is not monotone in closure: the panel would snap')
+        if np.any(np.diff(volume, axis=1) <= 0) or np.any(compliance <= 0):
+            raise ValueError('the cushion volume must rise with closure and its compliance '
+                             'be positive')
+        row = np.asarray(row, dtype=np.intp)
+        if row.ndim != 1 or row.size == 0 or row.min() < 0 or row.max() >= pressure.shape[0]:
+            raise ValueError(f'row must index the {pressure.shape[0]} rows of the tables')
+        result = cls.__new__(cls)
+        result._set_tables(tuple(arrays), row, np.linspace(0.0, 1.0, pressure.shape[1]))
+        return result
+
+    def _set_tables(self, distinct, row, closures):
+        self.row = row
+        self.closures = closures
+        self._distinct = distinct
         pressure, volume, compliance, fold_angle = (table[self.row] for table in self._distinct)
         self.pressure_pa = pressure
         """Gauge pressure [Pa] at each panel's closure samples (N, S)."""
@@ -103,7 +136,7 @@ class CushionMap:
         return lower, (clipped - low) / (high - low)
 
 
-def _distinct_panels(panels):
+def distinct_panels(panels):
     """Return the distinct panels, in first-seen order, and each panel's index among them (N,).
 
     Panels are compared by value (an :class:`~.statics.ActuatedPanel` is a frozen dataclass):

@@ -338,6 +338,8 @@ class StructuralPath:
     (bending from the moulded state times half the thickness plus the membrane strain)."""
     triangles: np.ndarray = None
     """Node indices of the mesh's triangles ``(triangles, 3)``, counter-clockwise."""
+    open_volume_m3: float = None
+    """Cushion volume of the open state, between the loaded footprint and the back [m3]."""
     zone: np.ndarray = None
     """Zone of each triangle (:data:`MIDRIB`, :data:`HINGE`, :data:`FLAP`)."""
 
@@ -452,4 +454,5 @@ def _path_from_points(panel_sheet, sheet, points, ended, moulding_energy):
         ended=ended, node_count=sheet.node_count, moulding_energy_j=moulding_energy,
         positions_m=np.array([p.positions_m for p in points]),
         surface_strain=np.array(strains), triangles=np.asarray(sheet.triangles),
+        open_volume_m3=float(points[0].volume_m3),
         zone=np.asarray(sheet.zone))
