@@ -16,9 +16,10 @@ nodes, and returns energies ``(m,)``, gradients ``(m, k, 3)`` or Hessians ``(m, 
   the surface as it turns (a follower load) and is conservative: the work of the pressure
   equals ``integral p dV`` exactly.
 
-Hessians are central differences of the analytic gradients, element by element (the energies
-are smooth; the step is :data:`HESSIAN_STEP_M`), which keeps Newton's method quadratic to
-the residuals the path solver asks for.
+The membrane Hessian is analytic (:func:`membrane_hessian`, geometric plus material
+stiffness); the others are central differences of the analytic gradients, element by element
+(the energies are smooth; the step is :data:`HESSIAN_STEP_M`), which keeps Newton's method
+quadratic to the residuals the path solver asks for.
 """
 
 import numpy as np
@@ -61,6 +62,37 @@ def membrane_gradient(corners, inverse, area, modulus_n_per_m, poisson):
     gradient[:, 1:] = np.swapaxes(edge_force, 1, 2)
     gradient[:, 0] = -edge_force.sum(axis=2)
     return gradient
+
+
+def membrane_hessian(corners, inverse, area, modulus_n_per_m, poisson):
+    """Hessian of :func:`membrane_energy` ``(m, 9, 9)``, corners' coordinates node by node.
+
+    With ``F = X B`` (``B`` the reference shape gradients of the three corners, ``(3, 2)``),
+    ``S`` the second Piola-Kirchhoff stress and ``dE(k, i) = sym(B_k F_i)`` the strain a unit
+    move of corner ``k`` along ``i`` makes: ``H = A [(B S B^T)_kl delta_ij + C ((1 - nu)
+    dE(k, i) : dE(l, j) + nu tr dE(k, i) tr dE(l, j))]`` (geometric plus material stiffness).
+    """
+    deformation = _deformation(corners, inverse)
+    strain = 0.5 * (np.einsum('mki,mkj->mij', deformation, deformation) - np.eye(2))
+    trace = strain[:, 0, 0] + strain[:, 1, 1]
+    stress = modulus_n_per_m[:, None, None] * (
+        (1.0 - poisson)[:, None, None] * strain + (poisson * trace)[:, None, None] * np.eye(2))
+    shape = np.einsum('kc,mca->mka', _CORNER_EDGES, inverse)  # (m, 3 corners, 2)
+    geometric = np.einsum('mka,mab,mlb->mkl', shape, stress, shape)
+    count = len(corners)
+    hessian = np.einsum('mkl,ij->mkilj', geometric, np.eye(3)).reshape(count, 9, 9)
+    # dE(k, i)_ab = (B_ka F_ib + F_ia B_kb) / 2, as (m, 9, 4).
+    half = np.einsum('mka,mib->mkiab', shape, deformation)
+    variation = 0.5 * (half + np.swapaxes(half, 3, 4)).reshape(count, 9, 4)
+    traces = variation[:, :, 0] + variation[:, :, 3]
+    material = modulus_n_per_m[:, None, None] * (
+        (1.0 - poisson)[:, None, None] * np.einsum('mpa,mqa->mpq', variation, variation)
+        + poisson[:, None, None] * np.einsum('mp,mq->mpq', traces, traces))
+    return area[:, None, None] * (hessian + material)
+
+
+#: Corner -> edge vectors of a triangle: ``e1 = x1 - x0``, ``e2 = x2 - x0`` (rows: corners).
+_CORNER_EDGES = np.array([[-1.0, -1.0], [1.0, 0.0], [0.0, 1.0]])
 
 
 def membrane_principal_strain(corners, inverse):

@@ -172,7 +172,8 @@ class SheetSystem:
         bending_dofs = np.concatenate([node_dofs(self.bending.stencil),
                                        position_dofs + self.bending.edges], axis=1)
         self._groups = [
-            _Group(node_dofs(sheet.triangles), reduced, self._membrane_gradient, 1),
+            _Group(node_dofs(sheet.triangles), reduced, self._membrane_gradient, 1,
+                   self._membrane_hessian),
             _Group(bending_dofs, reduced, self.bending.local_gradient, 1,
                    self.bending.local_hessian),
             _Group(node_dofs(self.loaded_triangles), reduced, self._prism_gradient, 0),
@@ -234,6 +235,10 @@ class SheetSystem:
         return elements.membrane_gradient(corners, self.inverse, self.area,
                                           self.membrane_modulus,
                                           self.sheet.poisson_ratio).reshape(local.shape)
+
+    def _membrane_hessian(self, local):
+        return elements.membrane_hessian(local.reshape(-1, 3, 3), self.inverse, self.area,
+                                         self.membrane_modulus, self.sheet.poisson_ratio)
 
     def _prism_gradient(self, local):
         corners = local.reshape(-1, 3, 3)

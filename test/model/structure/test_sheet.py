@@ -206,6 +206,27 @@ def test_a_sheet_moulded_in_a_shape_is_stress_free_there():
     assert np.max(np.abs(held.reactions_n)) < 1e-6
 
 
+def test_the_membrane_hessian_matches_central_differences_of_the_gradient():
+    rng = np.random.default_rng(5)
+    flat = rng.normal(0, 1, (40, 3, 2))
+    clockwise = np.linalg.det(np.stack([flat[:, 1] - flat[:, 0], flat[:, 2] - flat[:, 0]],
+                                       -1)) < 0
+    flat[clockwise] = flat[clockwise][:, [0, 2, 1]]
+    inverse, area = elements.membrane_reference(flat)
+    # Stretched, sheared and turned out of plane: both the material and the geometric part.
+    corners = (np.concatenate([flat, np.zeros((40, 3, 1))], -1)
+               + rng.normal(0, 0.3, (40, 3, 3)))
+    modulus, poisson = rng.uniform(1e5, 1e6, 40), rng.uniform(0.0, 0.45, 40)
+    analytic = elements.membrane_hessian(corners, inverse, area, modulus, poisson)
+    numeric = elements.finite_difference_hessian(
+        lambda local: elements.membrane_gradient(local.reshape(-1, 3, 3), inverse, area,
+                                                 modulus, poisson).reshape(40, 9),
+        corners.reshape(40, 9), step=1e-6)
+    assert np.max(np.abs(analytic - numeric)) < 1e-8 * np.max(np.abs(numeric))
+    assert np.allclose(analytic, np.swapaxes(analytic, 1, 2), rtol=0, atol=1e-12 * np.max(
+        np.abs(analytic)))
+
+
 def test_the_bending_hessian_matches_central_differences_of_the_gradient():
     points, faces = strip_mesh(0.3, 0.2, 0.05, jitter=0.2)
     rng = np.random.default_rng(3)
