@@ -44,8 +44,9 @@ class Interrupted(BaseException):
 class StopSignals:
     """SIGINT and SIGTERM turned into a stop request (a context manager).
 
-    Starting: a signal raises :class:`Interrupted`. Running: it sets :attr:`requested`.
-    Closing: it is counted and ignored.
+    Starting: a signal raises :class:`Interrupted`, once; signals while the abandoned start
+    unwinds are counted. Running: it sets :attr:`requested`. Closing: it is counted and
+    ignored.
     """
 
     SIGNALS = (signal.SIGINT, signal.SIGTERM)
@@ -74,13 +75,20 @@ class StopSignals:
     def _unraisable(self, unraisable):
         # A signal that lands in a weakref callback or a __del__ (the import system runs
         # some) cannot abandon the start from there: Python reports and drops the raise. The
-        # signal is still recorded, so the program stops as soon as it runs.
+        # signal is still recorded, so the program stops as soon as it runs, and the start
+        # goes on, so a later signal may still abandon it.
         if not isinstance(unraisable.exc_value, Interrupted):
             self._previous_unraisable_hook(unraisable)
+        elif self._phase == 'abandoning':
+            self._phase = 'starting'
 
     def _handle(self, number, frame):
         self.received.append(number)
         if self._phase == 'starting':
+            # One raise abandons the start. A second signal while it unwinds (a bringup's
+            # SIGTERM after the terminal's SIGINT to the group) is only recorded: raised again,
+            # it would cut the unwinding short with a traceback.
+            self._phase = 'abandoning'
             raise Interrupted(signal.Signals(number).name)
 
     @property

@@ -53,6 +53,23 @@ def test_a_signal_while_starting_abandons_the_start(number):
     assert not reached
 
 
+def test_a_second_signal_while_an_abandoned_start_unwinds_is_only_recorded():
+    """The bringup's SIGTERM right after the terminal's SIGINT to the group.
+
+    Seen once in test_signals (facade at 4 s): a child's traceback from the second raise.
+    """
+    unwound = []
+
+    def body(stop):
+        try:
+            deliver(signal.SIGINT)
+        finally:
+            deliver(signal.SIGTERM)
+            unwound.append(len(stop.received))
+    assert run_command('thing', body, interrupted_code=130) == 130
+    assert unwound == [2]
+
+
 def test_a_signal_while_running_asks_to_stop_and_the_close_is_not_cut_short():
     closed = []
 
