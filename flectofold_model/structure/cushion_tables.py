@@ -9,7 +9,8 @@ compliance as ``d(air)/dp`` along the path (central differences between its equi
 interpolated), the fold angle the closure's own. A path is a few CPU minutes on the default
 mesh, so the tables are cached on disk per panel design, like the compiled kernels: the key is
 a digest of the panel (geometry, laminates, cushion), the mesh, the closures and every source
-file of :mod:`flectofold_model.structure`, so a change to any of them computes afresh.
+file of :mod:`flectofold_model.structure`, so a change to any of them computes afresh; callers
+that ask for one design at once trace it once (a lock per entry).
 
 Only a path that closes with its pressure rising all the way makes a map: a panel that does not
 close in the structure (the hexagonal module, the 1000 mm radius variant) or that passes a
@@ -18,6 +19,8 @@ The cushion is the structure's: the volume between the loaded footprint and the 
 (``msg_docs/structure.md``), not the energy statics' strip cushion.
 """
 
+import contextlib
+import fcntl
 import hashlib
 import os
 from pathlib import Path
@@ -81,12 +84,17 @@ def structural_tables(actuated, mesh=PanelMesh(), samples=129, cache=True, progr
     if isinstance(samples, bool) or not isinstance(samples, int) or samples < 3:
         raise ValueError(f'samples must be an integer of at least 3, got {samples!r}')
     path_of_file = cache_directory() / f'{cache_key(actuated, mesh, samples)}.npz'
-    if cache:
+    if not cache:
+        return _from_path(actuated, structural_path(actuated, mesh, progress=progress),
+                          samples)
+    # Processes (or threads) that ask for one design together trace it once: the first
+    # holds the entry's lock while it traces and writes, the others wait and read.
+    with _entry_lock(path_of_file):
         cached = _read(path_of_file, samples)
         if cached is not None:
             return cached
-    tables = _from_path(actuated, structural_path(actuated, mesh, progress=progress), samples)
-    if cache:
+        tables = _from_path(actuated, structural_path(actuated, mesh, progress=progress),
+                            samples)
         _write(path_of_file, tables)
     return tables
 
@@ -129,6 +137,23 @@ def _from_path(actuated, path, samples):
     volume = path.open_volume_m3 + np.interp(fold_at, along, path.air_m3)
     compliance = np.interp(fold_at, along, np.gradient(path.air_m3, path.pressure_pa))
     return pressure, volume, compliance, fold
+
+
+@contextlib.contextmanager
+def _entry_lock(path):
+    """Hold an exclusive lock on a cache entry; without a writable cache, no lock."""
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        lock = open(path.with_suffix('.lock'), 'a')
+    except OSError:
+        yield
+        return
+    with lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        try:
+            yield
+        finally:
+            fcntl.flock(lock, fcntl.LOCK_UN)
 
 
 def _read(path, samples):

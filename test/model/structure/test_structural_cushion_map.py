@@ -1,6 +1,8 @@
 """The plant's cushion map from the structural model: read off the path, cached per design."""
 
 from dataclasses import replace
+import threading
+import time
 
 import numpy as np
 import pytest
@@ -142,3 +144,28 @@ def test_a_map_from_tables_refuses_tables_a_plant_cannot_use(change, message):
         CushionMap.from_tables(change(good), [0])
     with pytest.raises(ValueError, match='row must index the 1 rows'):
         CushionMap.from_tables(good, [1])
+
+
+def test_callers_that_ask_for_one_design_together_trace_it_once(cache, path, monkeypatch):
+    started, calls = threading.Event(), []
+
+    def slow(actuated, mesh, **kwargs):
+        calls.append(actuated)
+        started.set()
+        time.sleep(0.5)  # the other caller arrives while this one traces
+        return path
+
+    monkeypatch.setattr(cushion_tables, 'structural_path', slow)
+    results = []
+    first = threading.Thread(target=lambda: results.append(
+        structural_tables(PANEL, MESH, SAMPLES)))
+    first.start()
+    assert started.wait(timeout=60.0)
+    second = threading.Thread(target=lambda: results.append(
+        structural_tables(PANEL, MESH, SAMPLES)))
+    second.start()
+    first.join(timeout=120.0)
+    second.join(timeout=120.0)
+    assert len(results) == 2 and len(calls) == 1
+    for a, b in zip(*results):
+        assert np.array_equal(a, b)
