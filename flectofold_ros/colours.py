@@ -21,9 +21,14 @@ _RAMP = np.array([[236, 226, 198], [122, 170, 160], [24, 78, 104]], dtype=float)
 
 def ramp_colours(fractions):
     """(N, 4) uint8 RGBA of fractions in [0, 1] on the open-to-closed ramp (clipped)."""
-    position = np.clip(np.asarray(fractions, dtype=float), 0.0, 1.0) * (len(_RAMP) - 1)
-    low = np.minimum(position.astype(int), len(_RAMP) - 2)
-    rgb = _RAMP[low] + (position - low)[..., None] * (_RAMP[low + 1] - _RAMP[low])
+    return _on_ramp(_RAMP, np.clip(np.asarray(fractions, dtype=float), 0.0, 1.0))
+
+
+def _on_ramp(ramp, fraction):
+    """Opaque uint8 RGBA of fractions in [0, 1] of a ramp, linear between its colours."""
+    position = fraction * (len(ramp) - 1)
+    low = np.minimum(position.astype(int), len(ramp) - 2)
+    rgb = ramp[low] + (position - low)[..., None] * (ramp[low + 1] - ramp[low])
     rgba = np.full(position.shape + (4,), 255, dtype=np.uint8)
     rgba[..., :3] = np.round(rgb)
     return rgba
@@ -46,13 +51,8 @@ def strain_colours(strain, allowable_strain):
     ratio = np.abs(np.asarray(strain, dtype=float)) / allowable_strain
     position = np.where(ratio <= 1.0, ratio, 1.0 + np.log(np.maximum(ratio, 1.0))
                         / np.log(STRAIN_RED_MULTIPLE))
-    position = np.clip(position, 0.0, 2.0)
-    low = np.minimum(position.astype(int), 1)
-    rgb = _STRAIN_RAMP[low] + (position - low)[..., None] * (_STRAIN_RAMP[low + 1]
-                                                             - _STRAIN_RAMP[low])
-    rgba = np.full(position.shape + (4,), 255, dtype=np.uint8)
-    rgba[..., :3] = np.round(rgb)
-    return rgba
+    # 0 ... 1 to the allowable, 1 ... 2 beyond it: halves of the three-colour ramp.
+    return _on_ramp(_STRAIN_RAMP, np.clip(position, 0.0, 2.0) / 2.0)
 
 
 def ramp_colour(fraction):

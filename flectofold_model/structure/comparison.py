@@ -10,10 +10,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from flectofold_model.actuation.hexagon_statics import (HexagonActuatedPanel,
-                                                        HexagonActuationModel)
-from flectofold_model.actuation.statics import ActuationModel
-from flectofold_model.actuation.strain import hexagon_panel_strain, panel_strain
+from flectofold_model.actuation.kinds import actuation_model_of
+from flectofold_model.actuation.strain import panel_strain
 
 
 @dataclass(frozen=True)
@@ -42,20 +40,24 @@ class ClosureRows:
     """Whether a pressure regulator holds the closure (structural only)."""
 
 
-def _models(actuated):
-    """Return the energy statics and the strain rule of the panel's kind."""
-    if isinstance(actuated, HexagonActuatedPanel):
-        return HexagonActuationModel, hexagon_panel_strain
-    return ActuationModel, panel_strain
+def closure_apex_folds_rad(actuated, closures):
+    """Apex fold angles [rad] of ``closures`` of one actuated panel (quad or hexagon).
+
+    The package's closure is linear in the apex fold, from the pre-fold (0) to the kinematic
+    model's closed fold (1).
+    """
+    fold = actuation_model_of([actuated]).fold
+    opened = float(fold.open_fold_angle_rad[0])
+    closed = float(fold.closed_fold_angle_rad[0])
+    return opened + np.asarray(closures, dtype=np.float64) * (closed - opened)
 
 
 def kinematic_rows(actuated, closures):
     """Read the reflection model with its energy statics at ``closures`` (quad or hexagon)."""
     closures = np.asarray(closures, dtype=np.float64)
-    statics, strain_rule = _models(actuated)
-    model = statics([actuated] * len(closures))
+    model = actuation_model_of([actuated] * len(closures))
     state = model.fold.state_from_closure(closures)
-    strain = strain_rule([actuated] * len(closures), closures)
+    strain = panel_strain([actuated] * len(closures), closures)
     air = (model.cushion_volume_m3(state.shape_parameter)
            - model.cushion_volume_m3(model.fold.open_shape))
     return ClosureRows(closures, state.apex_fold_angle_rad, model.pressure_from_closure(closures),
@@ -66,10 +68,7 @@ def kinematic_rows(actuated, closures):
 def structural_rows(actuated, path, closures):
     """Read a :class:`~.panel.StructuralPath` at the closures of the kinematic map."""
     closures = np.asarray(closures, dtype=np.float64)
-    model = _models(actuated)[0]([actuated])
-    opened = float(model.fold.open_fold_angle_rad[0])
-    closed = float(model.fold.closed_fold_angle_rad[0])
-    target = opened + closures * (closed - opened)
+    target = closure_apex_folds_rad(actuated, closures)
     fold = np.asarray(path.apex_fold_rad)
     # The path up to its largest apex fold, where the fold rises along it.
     end = int(np.argmax(fold)) + 1

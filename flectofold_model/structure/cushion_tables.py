@@ -29,7 +29,8 @@ import zipfile
 import numpy as np
 
 from flectofold_model.actuation.cushion_map import CushionMap, distinct_panels
-from flectofold_model.actuation.statics import ActuatedPanel, ActuationModel
+from flectofold_model.actuation.statics import ActuatedPanel
+from flectofold_model.structure.comparison import closure_apex_folds_rad
 from flectofold_model.structure.panel import PanelMesh, structural_path
 
 _PACKAGE = Path(__file__).resolve().parent
@@ -121,10 +122,7 @@ def _from_path(actuated, path, samples):
                          f'{path.pressure_pa[index] / 1e3:.2f} kPa at '
                          f'{np.degrees(path.apex_fold_rad[index]):.1f} deg apex fold: a '
                          f'pressure regulator would snap the panel through, no cushion map')
-    model = ActuationModel([actuated])
-    opened = float(model.fold.open_fold_angle_rad[0])
-    closed = float(model.fold.closed_fold_angle_rad[0])
-    fold = opened + np.linspace(0.0, 1.0, samples) * (closed - opened)
+    fold = closure_apex_folds_rad(actuated, np.linspace(0.0, 1.0, samples))
     along = np.asarray(path.apex_fold_rad)
     if np.any(np.diff(along) <= 0) or np.any(np.diff(path.pressure_pa) <= 0):
         raise ValueError('the structural path does not fold and rise in pressure at every '

@@ -37,23 +37,22 @@ from dataclasses import dataclass
 import math
 
 import numpy as np
-from scipy.interpolate import BSpline
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
-from flectofold_model.kinematics.hexagon.fold_lines import control_points_m
+from flectofold_model.kinematics.hexagon.fold_lines import fold_line_spline
 from flectofold_model.kinematics.hexagon.panel import (hexagon_radius_m, HexagonBatch,
                                                        SECTOR_RAD)
-from flectofold_model.structure.panel import (band_fold_angles_rad, checker_triangles, FLAP,
-                                              HINGE, MIDRIB, trace_panel_path)
+from flectofold_model.structure.panel import (band_fold_angles_rad, check_mesh_counts,
+                                              checker_triangles, FLAP, HINGE, MIDRIB,
+                                              trace_panel_path)
 from flectofold_model.structure.sheet import Sheet
 
 #: Nodes closer than this fraction of the circumradius are one node [-].
 MERGE_TOLERANCE = 1e-9
 #: Fraction of the flap's width beyond the drawn line the band may take near a vertex [-].
 BAND_SHARE_OF_FLAP = 0.5
-_KNOTS = np.array([0.0, 0.0, 0.0, 1.0, 1.0, 1.0])
 
 
 @dataclass(frozen=True)
@@ -70,12 +69,7 @@ class HexagonMesh:
     """Rows across each flap."""
 
     def __post_init__(self):
-        for name in ('columns', 'centre_rows', 'hinge_rows', 'flap_rows'):
-            value = getattr(self, name)
-            if not isinstance(value, (int, np.integer)) or value < 1:
-                raise ValueError(f'{name} must be a positive integer, got {value!r}')
-        if self.columns % 2 or self.columns < 4:
-            raise ValueError(f'columns must be even and at least 4, got {self.columns}')
+        check_mesh_counts(self)
 
 
 @dataclass(frozen=True)
@@ -144,10 +138,9 @@ class HexagonSheet:
 
 def _fold_line(geometry, parameter):
     """Points, unit tangents (P, 2) of fold line 0 at spline parameters (P,)."""
-    control = control_points_m(HexagonBatch.from_panels([geometry]))[0]
-    spline = BSpline(_KNOTS, control, 2)
-    tangent = spline.derivative()(parameter)
-    return spline(parameter), tangent / np.linalg.norm(tangent, axis=1, keepdims=True)
+    spline = fold_line_spline(HexagonBatch.from_panels([geometry]))
+    tangent = spline.derivative()(parameter)[:, 0]
+    return spline(parameter)[:, 0], tangent / np.linalg.norm(tangent, axis=1, keepdims=True)
 
 
 def _sector_points(geometry, mesh):

@@ -30,7 +30,7 @@ at the band's inner edge to that of the flap face at its outer edge (positive cl
 total rotation the hinge zone carries, which is what the kinematic model's fold angle is.
 """
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, fields, replace
 
 import numpy as np
 
@@ -51,6 +51,20 @@ MOULD_STEPS = 2
 AIR_LIMIT_FACTOR = 2.0
 
 
+def check_mesh_counts(mesh):
+    """Refuse a structured mesh's counts that cannot be meshed (either panel kind).
+
+    Every field an integer of at least 1; ``columns`` even and at least 4, so that the mesh
+    has a middle column line and keeps its mirror symmetry.
+    """
+    for field in fields(mesh):
+        value = getattr(mesh, field.name)
+        if not isinstance(value, (int, np.integer)) or value < 1:
+            raise ValueError(f'{field.name} must be a positive integer, got {value!r}')
+    if mesh.columns % 2 or mesh.columns < 4:
+        raise ValueError(f'columns must be even and at least 4, got {mesh.columns}')
+
+
 @dataclass(frozen=True)
 class PanelMesh:
     """Element counts of the structured panel mesh."""
@@ -65,12 +79,7 @@ class PanelMesh:
     """Rows across each flap."""
 
     def __post_init__(self):
-        for name in ('columns', 'midrib_rows', 'hinge_rows', 'flap_rows'):
-            value = getattr(self, name)
-            if not isinstance(value, (int, np.integer)) or value < 1:
-                raise ValueError(f'{name} must be a positive integer, got {value!r}')
-        if self.columns % 2 or self.columns < 4:
-            raise ValueError(f'columns must be even and at least 4, got {self.columns}')
+        check_mesh_counts(self)
 
     def refined(self, factor):
         """Return the same mesh with every count multiplied by ``factor``."""

@@ -32,11 +32,18 @@ def control_points_m(batch):
     return np.stack([start, control, end], axis=1)
 
 
+def fold_line_spline(batch):
+    """Fold line 0 of every panel as one :class:`~scipy.interpolate.BSpline`.
+
+    Evaluated at parameters (P,) in [0, 1] it gives points (P, N, 2) [m]; its ``derivative()``
+    the tangents.
+    """
+    return BSpline(_KNOTS, np.moveaxis(control_points_m(batch), 1, 0), 2)
+
+
 def fold_line_points_m(batch, parameter):
     """Points (N, P, 2) of fold line 0 at B-spline parameters ``parameter`` (P,) in [0, 1]."""
-    control = control_points_m(batch)
-    spline = BSpline(_KNOTS, np.moveaxis(control, 1, 0), 2)
-    return np.moveaxis(spline(np.asarray(parameter, dtype=np.float64)), 0, 1)
+    return np.moveaxis(fold_line_spline(batch)(np.asarray(parameter, dtype=np.float64)), 0, 1)
 
 
 def drawn_radius_m(batch, sector_angle_rad, samples=401):
