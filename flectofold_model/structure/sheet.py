@@ -307,10 +307,10 @@ def positive_definite_factor(matrix, max_shifts=20):
             matrix.shape[0], format='csc')).tocsc()
         try:
             factor = _symmetric_lu(shifted)
+            pivots = _pivots(factor)
         except RuntimeError:
-            factor = None
-        if factor is not None and np.array_equal(factor.perm_r, factor.perm_c) \
-                and np.all(factor.U.diagonal() > 0.0):
+            pivots = None
+        if pivots is not None and np.all(pivots > 0.0):
             return factor
         shift = 1e-8 * scale if shift == 0.0 else 10.0 * shift
     return factorise(matrix)
@@ -320,6 +320,17 @@ def _symmetric_lu(matrix):
     """Factorise in SuperLU's symmetric mode: minimum degree on ``A + A^T``, diagonal pivots."""
     return splu(matrix, permc_spec='MMD_AT_PLUS_A', diag_pivot_thresh=0.0,
                 options={'SymmetricMode': True})
+
+
+def _pivots(factor):
+    """Return the pivots ``D`` of a symmetric-mode factor ``P H P^T = L D L^T``.
+
+    Their signs are the tangent's inertia; None where SuperLU pivoted off the diagonal after
+    all.
+    """
+    if not np.array_equal(factor.perm_r, factor.perm_c):
+        return None
+    return factor.U.diagonal()
 
 
 class _Group:
@@ -380,13 +391,14 @@ def tangent_inertia(system, values, pressure):
         factor = _symmetric_lu(matrix)
     except RuntimeError:
         return None
-    if not np.array_equal(factor.perm_r, factor.perm_c):
+    pivots = _pivots(factor)
+    if pivots is None:
         return None
     _, volume_gradient = system.gradients(values)
     curvature = volume_gradient @ factor.solve(volume_gradient)
     if not np.isfinite(curvature):
         return None
-    return int(np.count_nonzero(factor.U.diagonal() < 0.0)), float(curvature)
+    return int(np.count_nonzero(pivots < 0.0)), float(curvature)
 
 
 def _stability(system, values, pressure):
@@ -589,7 +601,9 @@ def solve_prescribed(sheet, held_positions_m, guess_positions_m, tolerance=1e-10
             if trial <= energy + 1e-12 * max(abs(energy), 1.0):
                 break
             step = 0.5 * step
-        energy = sum(system.energies_j(values + step))
+        else:
+            trial = sum(system.energies_j(values + step))
+        energy = trial
         values = values + step
         moves = step[system.free < position_dofs]
         # With every coordinate held only the edge rotations [rad] move.

@@ -9,7 +9,6 @@ import math
 import sys
 
 import numpy as np
-import rerun as rr
 
 from flectofold_model import DEMONSTRATOR_MODULE, FoldModel, PanelBatch, PROTOTYPE
 from flectofold_model.actuation import actuated_like, DEMONSTRATOR_ACTUATED, StripCushion
@@ -22,8 +21,6 @@ from flectofold_model.kinematics.hexagon.panel import HexagonPanel
 from flectofold_model.structure.comparison import kinematic_rows, structural_rows
 from flectofold_model.structure.hexagon import hexagon_structural_path, HexagonMesh
 from flectofold_model.structure.panel import PanelMesh, structural_path
-from flectofold_ros.rerun.sinks import check_rrd_path
-from flectofold_ros.rerun.structure_scene import log_structural_path
 from flectofold_ros.runner import run_command
 
 PANELS = {'demonstrator': DEMONSTRATOR_MODULE, 'prototype': PROTOTYPE,
@@ -155,10 +152,13 @@ def structural_fold_table(panel, steps, mesh=None, rrd_path=None):
     is traced.
     """
     if rrd_path is not None:
+        # Rerun only when asked: importing it costs the table half a second.
+        from flectofold_ros.rerun.sinks import check_rrd_path
+        from flectofold_ros.rerun.structure_scene import save_structural_path
         rrd_path = check_rrd_path(rrd_path)
     hexagon = isinstance(panel, HexagonPanel)
-    if mesh is None:
-        mesh = HexagonMesh() if hexagon else PanelMesh()
+    default = STRUCTURAL_MESHES['default'][hexagon]
+    mesh = default if mesh is None else mesh
     actuated = actuated_preset(panel)
 
     def progress(pressure_pa, apex_fold_rad):
@@ -187,7 +187,6 @@ def structural_fold_table(panel, steps, mesh=None, rrd_path=None):
         lines.append(f'the path reached the closed fold ({reached:.1f} deg)')
     else:
         lines.append(f'the path ended at {reached:.1f} deg apex fold: {path.ended}')
-    default = HexagonMesh() if hexagon else PanelMesh()
     if mesh.columns < default.columns or mesh.hinge_rows < default.hinge_rows:
         lines.append('a mesh coarser than the default: its pressure maxima and strains are not '
                      'converged, and too few hinge rows make pressure maxima that finer meshes '
@@ -197,11 +196,7 @@ def structural_fold_table(panel, steps, mesh=None, rrd_path=None):
     lines.append(f'peak hinge strain on the path {worst * 100:.2f} % against an allowable '
                  f'{allowable * 100:.1f} % ({worst / allowable:.1f} x)')
     if rrd_path is not None:
-        recording = rr.RecordingStream('flectofold_structure')
-        recording.set_sinks(rr.FileSink(str(rrd_path)))
-        log_structural_path(recording, path, allowable)
-        recording.flush()
-        recording.disconnect()
+        save_structural_path(rrd_path, path, allowable)
         lines.append(f'Rerun recording {rrd_path}: the sheet at {len(path.pressure_pa)} '
                      f'equilibria, coloured by strain against the allowable')
     return lines

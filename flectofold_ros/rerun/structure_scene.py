@@ -1,6 +1,7 @@
 """The structural path in Rerun: the folded sheet at every equilibrium, coloured by strain.
 
-No rclpy here. ``fold_table --model structural --rrd FILE`` writes it. Entity layout
+No rclpy here. ``fold_table --model structural --rrd FILE`` writes it
+(:func:`save_structural_path`). Entity layout
 (timeline ``equilibrium``, the index of the equilibrium along the path, 0 the moulded open
 state; panel frame, z out of the facade, REP-103):
 
@@ -58,3 +59,12 @@ def log_structural_path(recording, path, allowable_strain):
         for entity, field in SERIES:
             recording.log(entity, rr.Scalars(float(getattr(path, field)[index])))
         recording.log(PEAK_HINGE_STRAIN, rr.Scalars(float(path.peak_strain['hinge'][index])))
+
+
+def save_structural_path(rrd_path, path, allowable_strain):
+    """Write :func:`log_structural_path` of ``path`` to the .rrd file ``rrd_path``."""
+    recording = rr.RecordingStream('flectofold_structure')
+    recording.set_sinks(rr.FileSink(str(rrd_path)))
+    log_structural_path(recording, path, allowable_strain)
+    recording.flush()
+    recording.disconnect()

@@ -2,15 +2,14 @@
 
 import numpy as np
 import pytest
-import rerun as rr
 from rrd_reading import Rrd
 
 from flectofold_model.actuation import DEMONSTRATOR_ACTUATED
 from flectofold_model.structure.panel import PanelMesh, structural_path
 from flectofold_ros.colours import strain_colours, STRAIN_RED_MULTIPLE
 from flectofold_ros.commands import fold_table
-from flectofold_ros.rerun.structure_scene import (log_structural_path, PEAK_HINGE_STRAIN, SHEET,
-                                                  TIMELINE, vertex_strain)
+from flectofold_ros.rerun.structure_scene import (PEAK_HINGE_STRAIN, save_structural_path,
+                                                  SHEET, TIMELINE, vertex_strain)
 
 QUICK = PanelMesh(20, 2, 1, 2)
 ALLOWABLE = 0.007
@@ -51,11 +50,7 @@ def test_a_vertex_takes_the_largest_strain_of_its_triangles():
 
 def test_the_recording_holds_the_sheet_at_every_equilibrium_coloured_by_strain(path, tmp_path):
     out = tmp_path / 'path.rrd'
-    recording = rr.RecordingStream('flectofold_structure_test')
-    recording.set_sinks(rr.FileSink(str(out)))
-    log_structural_path(recording, path, ALLOWABLE)
-    recording.flush()
-    recording.disconnect()
+    save_structural_path(out, path, ALLOWABLE)
     rrd = Rrd(out, timeline=TIMELINE)
     positions = rrd.arrays(SHEET, 'Mesh3D:vertex_positions', 3)
     assert [index for index, _ in positions] == list(range(len(path.pressure_pa)))
