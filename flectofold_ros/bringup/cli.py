@@ -350,11 +350,20 @@ class Bringup(Program):
                 self._awaiting[child.name] = time.monotonic() + RESTART_WAIT_S
         for child in self.supervisor.children:
             if child.name in self._awaiting and child.state == 'running' and (
-                    self.monitor.heard(child.panels) or
-                    time.monotonic() > self._awaiting[child.name]):
+                    self._back(child) or time.monotonic() > self._awaiting[child.name]):
                 del self._awaiting[child.name]
         if events:
             self._publish_supervision()
+
+    def _back(self, child):
+        """Whether a restarted panel process is back: its panels or its own status reported.
+
+        Its own status on /diagnostics comes on the wall clock, at every diagnostics period;
+        its panels' states only as its loop runs, which a held clock does not let it do, and
+        the first of them may go out before the monitor's subscription has matched it.
+        """
+        return (self.monitor.heard(child.panels) or
+                child.settings_node in self.monitor.process_heard_s)
 
     def _kill_hung(self):
         """Kill a running panel process whose /diagnostics stopped for HUNG_S (it hangs)."""
@@ -381,7 +390,7 @@ class Bringup(Program):
         """Hold simulated time while a panel loop lags or a panel process restarts.
 
         A loop lags when it is more than MAX_LAG_S behind the clock; a dead panel process
-        holds the clock until its restart's panels report again (or RESTART_WAIT_S passed).
+        holds the clock until its restart is back (:meth:`_back`; or RESTART_WAIT_S passed).
         """
         causes = set()
         if self.monitor.lag_s(self.plan.start_epoch_s) > MAX_LAG_S:

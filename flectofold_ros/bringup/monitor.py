@@ -44,6 +44,8 @@ class Monitor(Node):
         self.fault = np.zeros(count, dtype=np.uint8)
         self.status = np.zeros(count, dtype=np.uint8)
         self.counters = {key: np.full(count, np.nan) for key in self.COUNTERS}
+        self.restarted_at_s = np.full(count, np.nan)
+        """Clock when each panel was last forgotten [s]: its restarted loop starts there."""
         self.lost = np.zeros(count, dtype=bool)
         """Panels whose process is dead for good: left out of readiness, lag and catching up."""
         self.behind_s = 0.0
@@ -76,10 +78,15 @@ class Monitor(Node):
         self.fault[index], self.status[index] = table['fault'], table['status']
 
     def forget(self, panel_ids):
-        """Drop what is known of ``panel_ids`` (their process died): unheard until they report."""
+        """Drop what is known of ``panel_ids`` (their process died): unheard until they report.
+
+        Their restarted loop starts at the clock of now, not at the start of the day: until
+        they report, they trail the clock from here (:meth:`lag_s`).
+        """
         index = self._indices(panel_ids)
         for values in (self.state_stamp_s, self.closure, self.setpoint):
             values[index] = np.nan
+        self.restarted_at_s[index] = np.nan if self.clock_s is None else self.clock_s
         self.fault[index], self.status[index] = 0, 0
 
     def heard(self, panel_ids):
@@ -132,14 +139,10 @@ class Monitor(Node):
     def lag_s(self, start_s):
         """How far the slowest panel's newest state trails the clock [s], or NaN.
 
-        A panel that has published no state yet counts as at ``start_s``, the start of the
-        day: its loop has not shown it got any further.
+        See :func:`trailing_s`.
         """
-        if self.clock_s is None:
-            return math.nan
-        stamps = np.where(np.isfinite(self.state_stamp_s), self.state_stamp_s, start_s)
-        stamps = stamps[~self.lost]
-        return self.clock_s - float(stamps.min()) if len(stamps) else 0.0
+        return trailing_s(self.clock_s, self.state_stamp_s, self.restarted_at_s, start_s,
+                          self.lost)
 
     def caught_up(self, end_s, state_period_s):
         """Whether every panel published a state of the day's last ``state_period_s``."""
@@ -191,6 +194,23 @@ class Monitor(Node):
         return (f'sim {local} | panels reporting {self.reporting()}/{len(self.facade)}{lost} | '
                 f'closure {closure} (tracking {wanted}) | faults {faulted} | loop lag '
                 f'{self.lag_s(start_s):.0f} s sim')
+
+
+def trailing_s(clock_s, stamp_s, restarted_at_s, start_s, lost):
+    """How far the slowest panel's newest state trails the clock [s], or NaN with no clock.
+
+    A panel that has published no state yet counts as at the start of the day, ``start_s``
+    (its loop has not shown it got any further), or, if its process was restarted, as at
+    the clock of the restart, ``restarted_at_s``, where its new loop starts. Counting a
+    restarted panel from the start of the day would hold the clock for a lag that is not
+    there, and a held clock gives the new loop no period to report: nothing would move again.
+    Panels ``lost`` for good are left out; with none left, nothing trails (0).
+    """
+    if clock_s is None:
+        return math.nan
+    unheard = np.where(np.isfinite(restarted_at_s), restarted_at_s, start_s)
+    stamps = np.where(np.isfinite(stamp_s), stamp_s, unheard)[~np.asarray(lost)]
+    return clock_s - float(stamps.min()) if len(stamps) else 0.0
 
 
 def _number(text):
