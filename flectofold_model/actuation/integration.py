@@ -82,6 +82,14 @@ def _mass_flow(from_pa, to_pa, conductance, critical_ratio, temperature_scale):
 @inline_kernel
 def _cushion(pressure_table, volume_table, compliance_table, row, gauge_pa):
     """Volume and compliance of one panel's cushion: :meth:`.CushionMap.__call__` for a scalar."""
+    volume, compliance = _cushion_off_stops(pressure_table, volume_table, compliance_table, row,
+                                            gauge_pa)
+    return volume, compliance * _off_stops(pressure_table[row], gauge_pa)
+
+
+@inline_kernel
+def _cushion_off_stops(pressure_table, volume_table, compliance_table, row, gauge_pa):
+    """Volume and compliance of one panel's cushion as the table has them, no stop ramped in."""
     table = pressure_table[row]
     last = table.shape[0] - 1
     clipped = min(max(gauge_pa, table[0]), table[last])
@@ -90,10 +98,21 @@ def _cushion(pressure_table, volume_table, compliance_table, row, gauge_pa):
     volumes, compliances = volume_table[row], compliance_table[row]
     volume = volumes[lower] + fraction * (volumes[lower + 1] - volumes[lower])
     compliance = compliances[lower] + fraction * (compliances[lower + 1] - compliances[lower])
+    return volume, compliance
+
+
+@inline_kernel
+def _off_stops(table, gauge_pa):
+    """Share of the table's compliance a cushion has at ``gauge_pa``: 0 on a stop, 1 off it.
+
+    Within the first and the last interval of the pressure ``table`` it ramps to zero at the
+    stop (:class:`.CushionMap`).
+    """
+    last = table.shape[0] - 1
     off_open_stop = min(max(gauge_pa / table[1], 0.0), 1.0)
     off_closed_stop = min(max((table[last] - gauge_pa) / (table[last] - table[last - 1]), 0.0),
                           1.0)
-    return volume, compliance * off_open_stop * off_closed_stop
+    return off_open_stop * off_closed_stop
 
 
 @inline_kernel

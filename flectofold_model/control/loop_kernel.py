@@ -17,7 +17,7 @@ import numpy as np
 
 from flectofold_model._compiled import inline_kernel, kernel
 from flectofold_model.actuation.flow import ATMOSPHERIC_PRESSURE_PA
-from flectofold_model.actuation.integration import _cushion, _mass_flow
+from flectofold_model.actuation.integration import _cushion_off_stops, _mass_flow, _off_stops
 
 _ATM = ATMOSPHERIC_PRESSURE_PA
 
@@ -25,7 +25,7 @@ _ATM = ATMOSPHERIC_PRESSURE_PA
 TARGET, REFERENCE, FILTERED, INTEGRAL, SUPPLY, LAST_READING, STARTED = range(7)
 STUCK_TIMER, DROPOUT_TIMER, LEAK_TIMER, INFLOW_TIMER, SUPPLY_TIMER = range(7, 12)
 LEAK_START, INFLOW_START, EXPECTED_CHANGE = range(12, 15)
-FILL_CAPACITY, VENT_CAPACITY, CAPACITANCE, LAST_FILL, LAST_VENT, LIMITED, TARGET_LIMIT = \
+FILL_CAPACITY, VENT_CAPACITY, INFLOW_CAPACITANCE, LAST_FILL, LAST_VENT, LIMITED, TARGET_LIMIT = \
     range(15, 22)
 STATE_ROWS = 22
 # Rows of the codes (2, N) and their values: Fault and SafeAction in pressure_loop.
@@ -138,10 +138,18 @@ def _regulate(i, dt_s, previous_reference, supply_pa, state, parameters, circuit
     error = reference - pressure
     rate = ((reference - previous_reference) / dt_s
             + (error + state[INTEGRAL, i] / parameters[_TI]) / parameters[_TAU])
-    volume, compliance = _cushion(tables[0], tables[1], tables[2], tables[4][i],
-                                  max(pressure, 0.0))
+    gauge = max(pressure, 0.0)
+    volume, free_compliance = _cushion_off_stops(tables[0], tables[1], tables[2], tables[4][i],
+                                                 gauge)
+    compliance = free_compliance * _off_stops(tables[0][tables[4][i]], gauge)
     absolute = pressure + _ATM
     capacitance = (volume + dead_volume + absolute * compliance) / rt
+    # The inflow test expects of a vent no more than the least drop the cushion allows: with
+    # the table's compliance, not the one ramped to zero on a stop. A panel resting on its
+    # closed stop leaves it within a few pascals, onto a compliance that may be 40 times the
+    # gas's alone (a structural map, msg_docs/structure.md): the ramped one predicted a first
+    # drop the vent could not make, read as air coming in (fill_valve_stuck).
+    largest_capacitance = (volume + dead_volume + absolute * free_compliance) / rt
     demand = capacitance * rate
     upstream = supply_pa if math.isfinite(supply_pa) else 0.0
     # Opening the fill valve against a supply no higher than the cushion would drain it.
@@ -151,7 +159,7 @@ def _regulate(i, dt_s, previous_reference, supply_pa, state, parameters, circuit
     vent_capacity = _mass_flow(max(absolute, _ATM + 1.0), _ATM, vent_conductance,
                                critical_ratio, temperature_scale)
     state[FILL_CAPACITY, i] = fill_capacity if can_fill else 0.0
-    state[VENT_CAPACITY, i], state[CAPACITANCE, i] = vent_capacity, capacitance
+    state[VENT_CAPACITY, i], state[INFLOW_CAPACITANCE, i] = vent_capacity, largest_capacitance
     # A vented cushion cannot go below the atmosphere, so at the open reference a reading below
     # it is sensor noise or offset: filling on it would put air into a panel meant to lie flat
     # (seen: a storm position held at 150 Pa after a noisy reading of -70 Pa).
@@ -222,7 +230,7 @@ def _uncommanded_inflow(i, dt_s, readable, state, parameters):
     start = state[INFLOW_START, i]
     expected = state[EXPECTED_CHANGE, i] + dt_s * (
         state[LAST_FILL, i] * state[FILL_CAPACITY, i]
-        - state[LAST_VENT, i] * state[VENT_CAPACITY, i]) / state[CAPACITANCE, i]
+        - state[LAST_VENT, i] * state[VENT_CAPACITY, i]) / state[INFLOW_CAPACITANCE, i]
     # No vent takes the cushion below the atmosphere: without this floor a full vent through
     # the open stop predicts a drop far larger than the pressure has, read as air coming in.
     expected = max(expected, -max(start, 0.0))

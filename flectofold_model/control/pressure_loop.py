@@ -164,7 +164,7 @@ class PressureController:
         self.codes = np.zeros((2, count), dtype=np.int64)
         """Every panel's latched fault and safe action, as :mod:`.loop_kernel` codes."""
         self.state[[loop_kernel.SUPPLY, loop_kernel.LAST_READING]] = np.nan
-        self.state[loop_kernel.CAPACITANCE] = 1.0
+        self.state[loop_kernel.INFLOW_CAPACITANCE] = 1.0
         self.state[loop_kernel.TARGET_LIMIT] = np.minimum(
             cushion_map.pressure_pa[:, -1],
             parameters.max_gauge_pa - 3 * parameters.pressure_margin_pa)
