@@ -51,6 +51,7 @@ setup(
             'bag_reindex = flectofold_ros.executables:bag_reindex',
             'facade_export = flectofold_ros.executables:facade_export',
             'valve_terminal_sim = flectofold_ros.executables:valve_terminal_sim',
+            'structure_cache = flectofold_ros.executables:structure_cache',
         ],
     },
 )

@@ -34,6 +34,7 @@ EXECUTABLES = {
     'bag_reindex': ('flectofold_ros.commands.bag_reindex', 130),
     'facade_export': ('flectofold_ros.commands.facade_export', 130),
     'valve_terminal_sim': ('flectofold_ros.commands.valve_terminal_sim', 0),
+    'structure_cache': ('flectofold_ros.commands.structure_cache', 130),
 }
 
 
@@ -109,3 +110,4 @@ replay = _entry_point('replay')
 bag_reindex = _entry_point('bag_reindex')
 facade_export = _entry_point('facade_export')
 valve_terminal_sim = _entry_point('valve_terminal_sim')
+structure_cache = _entry_point('structure_cache')

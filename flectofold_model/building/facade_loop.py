@@ -33,8 +33,8 @@ from flectofold_model.building.facade_optics import (beam_transmittance, diffuse
                                                      effective_transmittance)
 from flectofold_model.environment.ephemeris import SunEphemeris
 from flectofold_model.environment.sun import Site
-from flectofold_model.scheduling.facade_schedule import (FacadeSchedule, footprint_weights,
-                                                         representative_panel)
+from flectofold_model.facade.footprint import footprint_weights, representative_panel
+from flectofold_model.scheduling.facade_schedule import FacadeSchedule
 from flectofold_model.scheduling.objective import RoomAware
 from flectofold_model.scheduling.scheduler import Reason
 from flectofold_model.shading.ray_casting import SUNLIT_MIN_SZ

@@ -32,6 +32,7 @@ from flectofold_model.control.hardware import CushionDriver, SimulatedCushions
 from flectofold_model.control.pressure_loop import (ControllerParameters, Fault,
                                                     PressureController)
 from flectofold_model.control.regulator import RegulatorSetpoints
+from flectofold_model.structure.facade_map import facade_cushion_map
 
 #: States a loop keeps for its rows: rows that take them at least this often lose none.
 SAMPLE_HISTORY = 4096
@@ -580,7 +581,7 @@ def compile_kernels():
 
 def facade_loops(facade, panel_ids, control_period_s=0.1, parameters=ControllerParameters(),
                  circuit=DEMONSTRATOR_PLANT, seed=0, quiet_period_s=None, max_call_s=None,
-                 driver=None):
+                 driver=None, trace=True):
     """Build :class:`PanelLoops` for some panels of a facade on one simulated circuit.
 
     Each panel is actuated like its kind's preset module (the quad demonstrator or the
@@ -589,9 +590,10 @@ def facade_loops(facade, panel_ids, control_period_s=0.1, parameters=ControllerP
     otherwise). The plant is the compiled engine (``PneumaticPlant(integrator='embedded')``);
     panels of one module geometry share one static table. ``driver``: a
     :class:`CushionDriver` with one channel per panel instead (real valves; ``circuit`` and
-    ``seed`` are then unused).
+    ``seed`` are then unused). The cushion map is the one the facade's description chooses
+    (:func:`~flectofold_model.structure.facade_map.facade_cushion_map`, ``trace`` as there).
     """
-    model, cushion_map = facade_actuation(facade, panel_ids)
+    model, cushion_map = facade_actuation(facade, panel_ids, trace)
     if driver is None:
         driver = SimulatedCushions(facade_plant(model, cushion_map, circuit, seed))
     return PanelLoops(model, driver, control_period_s, parameters,
@@ -599,15 +601,17 @@ def facade_loops(facade, panel_ids, control_period_s=0.1, parameters=ControllerP
                       max_call_s=max_call_s)
 
 
-def facade_actuation(facade, panel_ids):
+def facade_actuation(facade, panel_ids, trace=True):
     """Return the actuation model and its cushion map for ``panel_ids`` of ``facade``.
 
     Each panel is actuated like its kind's preset module
-    (:func:`~flectofold_model.actuation.kinds.actuated_like`).
+    (:func:`~flectofold_model.actuation.kinds.actuated_like`); the map is the energy statics'
+    or the structure's, as the description chooses
+    (:func:`~flectofold_model.structure.facade_map.facade_cushion_map`, ``trace`` as there).
     """
     indices = panel_indices(facade, panel_ids)
     model = actuation_model_of(actuated_like(facade.panels[i]) for i in indices)
-    return model, CushionMap(model)
+    return model, facade_cushion_map(facade, model, trace)
 
 
 def facade_plant(model, cushion_map, circuit=DEMONSTRATOR_PLANT, seed=0):

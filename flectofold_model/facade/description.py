@@ -61,6 +61,7 @@ _SCHEMA = {
               'circumradius_m': float, 'fold_line_sag_m': float},
     'overrides': dict,
     'control': dict,
+    'actuation': {'cushion_map': str},
 }
 #: The panel keys of each panel kind (``panel.type``); a facade is all one kind.
 _PANEL_KEYS = {
@@ -76,6 +77,9 @@ _SURFACE_KEYS = {'plane': (), 'cylinder': ('radius_m',),
 _PANEL_DEFAULTS = {'min_prefold_rad': math.radians(5.0),
                    'max_moulded_prefold_rad': math.radians(15.0), 'closed_clearance_m': 0.02}
 _CONTROL_KEYS = {'period_s', 'shading_target', 'look_ahead_s', 'controller'}
+#: Where the plant, the loops and the scheduler take a panel's pressure, air and closure from:
+#: the energy statics of each panel, or the structural model of the facade's median panel.
+CUSHION_MAPS = ('energy', 'structural')
 #: A facade's name ends up in recording ids and file names: a short plain word.
 _NAME = re.compile(r'[A-Za-z0-9][A-Za-z0-9_.-]{0,63}')
 
@@ -107,6 +111,10 @@ class Facade:
     panel_kind: str = 'quad'
     """``'quad'`` (:class:`~flectofold_model.kinematics.panel.PanelGeometry` panels) or
     ``'hexagon'`` (:class:`~flectofold_model.kinematics.hexagon.panel.HexagonPanel` panels)."""
+    cushion_map: str = 'energy'
+    """``actuation.cushion_map``: ``'energy'`` (each panel's energy statics) or
+    ``'structural'`` (the structural model of the median panel, quad facades only; see
+    :func:`~flectofold_model.structure.facade_map.facade_cushion_map`)."""
 
     def __len__(self):
         return len(self.panels)
@@ -269,6 +277,7 @@ def _build_document(document, base_directory):
         built = _hexagon_facade(document, base_directory)
     else:
         built = _quad_facade(document, base_directory)
+    cushion_map = _cushion_map(document.get('actuation', {}), kind)
     patches, control, (panels, ids, kept, surface_prefold, moulded, excluded) = built
     if not panels:
         raise FacadeError('no patch can carry a panel that folds the right way: '
@@ -279,7 +288,7 @@ def _build_document(document, base_directory):
                   surface_prefold_rad=np.array(surface_prefold),
                   moulded_prefold_rad=np.array(moulded),
                   gaussian_sign=patches.gaussian_sign[kept], excluded=excluded, control=control,
-                  panel_kind=kind)
+                  panel_kind=kind, cushion_map=cushion_map)
 
 
 def _panel_kind(template):
@@ -409,6 +418,18 @@ def _patches(surface, grid, base_directory):
         if not 1 <= value <= 1000:
             raise FacadeError(f'grid.{key}: must lie in [1, 1000], got {short_repr(value)}')
     return shape.tessellate(rows, columns, midrib)
+
+
+def _cushion_map(actuation, kind):
+    choice = actuation.get('cushion_map', 'energy')
+    if choice not in CUSHION_MAPS:
+        raise FacadeError(f'actuation.cushion_map: must be one of {", ".join(CUSHION_MAPS)}, '
+                          f'got {short_repr(choice)}')
+    if choice == 'structural' and kind != 'quad':
+        raise FacadeError('actuation.cushion_map: structural needs quad panels; the '
+                          'hexagonal module does not close in the structural model '
+                          '(msg_docs/structure.md)')
+    return choice
 
 
 def _control(control):

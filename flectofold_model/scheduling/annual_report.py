@@ -67,10 +67,9 @@ from flectofold_model.environment.clear_sky import clear_sky_dni
 from flectofold_model.environment.sun import Site, solar_position
 from flectofold_model.environment.weather import (into_reference_year, REFERENCE_YEAR,
                                                   site_distance_deg, Weather, weather_at)
+from flectofold_model.facade.footprint import footprint_weights, representative_panel
 from flectofold_model.scheduling.day_report import _interpolate, CANDIDATE_CLOSURES
-from flectofold_model.scheduling.facade_schedule import (footprint_weights, full_close_air_nl,
-                                                         representative_panel,
-                                                         scheduler_parameters)
+from flectofold_model.scheduling.facade_schedule import full_close_air_nl, scheduler_parameters
 from flectofold_model.scheduling.frontier import ClosureProblem, frontier, limit_at, Limits
 from flectofold_model.scheduling.predictive import (DEFAULT_CONTROLLER, PlanInputs,
                                                     PredictiveController,

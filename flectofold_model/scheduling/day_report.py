@@ -45,9 +45,9 @@ import numpy as np
 
 from flectofold_model.environment import sun
 from flectofold_model.environment.clear_sky import clear_sky_dni
+from flectofold_model.facade.footprint import footprint_weights
 from flectofold_model.kinematics.kinds import fold_model_of
-from flectofold_model.scheduling.facade_schedule import (footprint_weights, full_close_air_nl,
-                                                         scheduler_parameters)
+from flectofold_model.scheduling.facade_schedule import full_close_air_nl, scheduler_parameters
 from flectofold_model.scheduling.frontier import ClosureProblem, frontier, limit_at, Limits
 from flectofold_model.scheduling.predictive import DEFAULT_CONTROLLER, PlanInputs
 from flectofold_model.scheduling.scheduler import Scheduler

@@ -22,12 +22,13 @@ from flectofold_model.actuation import (actuated_like, actuation_model_of,
                                         ATMOSPHERIC_PRESSURE_PA, DEMONSTRATOR_PLANT)
 from flectofold_model.environment.clear_sky import ClearSkyDni
 from flectofold_model.environment.ephemeris import SunEphemeris
-from flectofold_model.kinematics.hexagon.panel import HexagonPanel
+from flectofold_model.facade.footprint import representative_panel
 from flectofold_model.scheduling.predictive import (DEFAULT_CONTROLLER, plan_inputs,
                                                     PredictiveController,
                                                     PredictiveParameters)
 from flectofold_model.scheduling.scheduler import Scheduler, SchedulerParameters
 from flectofold_model.shading.table import ShadingTable
+from flectofold_model.structure.facade_map import structural_close_air_nl
 
 
 def scheduler_parameters(facade):
@@ -40,32 +41,18 @@ def full_close_air_nl(facade):
     """Free air [NL] that closes each panel from open, actuated like its kind's preset.
 
     ``(p_closed V_closed - p_atm V_open) / p_atm`` with absolute pressures and the tubing's dead
-    volume, from the static actuation model of each panel's own geometry.
+    volume, from the static actuation model of each panel's own geometry, or from the
+    structural map of the facade's median panel when its description chooses that
+    (:func:`~flectofold_model.structure.facade_map.structural_close_air_nl`).
     """
-    model = actuation_model_of(actuated_like(panel) for panel in facade.panels)
     dead = DEMONSTRATOR_PLANT.dead_volume_m3
+    if facade.cushion_map == 'structural':
+        return structural_close_air_nl(facade, dead)
+    model = actuation_model_of(actuated_like(panel) for panel in facade.panels)
     closed = (ATMOSPHERIC_PRESSURE_PA + model.closed_pressure_pa) * (
         model.cushion_volume_m3(model.fold.closed_shape) + dead)
     opened = ATMOSPHERIC_PRESSURE_PA * (model.cushion_volume_m3(model.fold.open_shape) + dead)
     return (closed - opened) / ATMOSPHERIC_PRESSURE_PA * 1e3
-
-
-def footprint_areas_m2(facade):
-    """Footprint area (N,) of each panel [m2]: a hexagon's own, a quad's length x width."""
-    return np.array([panel.area_m2 if isinstance(panel, HexagonPanel)
-                     else panel.length_m * panel.width_m for panel in facade.panels])
-
-
-def footprint_weights(facade):
-    """Each panel's share (N,) of the facade's footprint, summing to 1 [-]."""
-    areas = footprint_areas_m2(facade)
-    return areas / areas.sum()
-
-
-def representative_panel(facade):
-    """Pick the facade's median panel by area, for which the shading table is built."""
-    areas = footprint_areas_m2(facade)
-    return facade.panels[int(np.argsort(areas)[len(areas) // 2])]
 
 
 class FacadeSchedule:

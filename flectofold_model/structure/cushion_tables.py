@@ -54,7 +54,12 @@ def cache_key(actuated, mesh, samples):
     return digest.hexdigest()[:24]
 
 
-def structural_tables(actuated, mesh=PanelMesh(), samples=129, cache=True, progress=None):
+class NotCached(ValueError):
+    """A structural map asked for without tracing (``trace=False``) is not in the cache."""
+
+
+def structural_tables(actuated, mesh=PanelMesh(), samples=129, cache=True, progress=None,
+                      trace=True):
     """Pressure, volume, compliance and apex fold (S,) of a quad panel at ``samples`` closures.
 
     Parameters
@@ -67,6 +72,9 @@ def structural_tables(actuated, mesh=PanelMesh(), samples=129, cache=True, progr
         Read the tables from the cache when there, write them there when computed.
     progress : callable, optional
         Passed to :func:`~.panel.structural_path` when the path is traced.
+    trace : bool
+        Trace the path when the cache does not have it; False raises :class:`NotCached`
+        instead (a process that must start in seconds, not minutes).
 
     Returns
     -------
@@ -78,6 +86,8 @@ def structural_tables(actuated, mesh=PanelMesh(), samples=129, cache=True, progr
     ------
     ValueError
         When the path does not close or passes a pressure maximum (named in the message).
+    NotCached
+        With ``trace`` False, when the cache does not hold the tables.
     """
     if not isinstance(actuated, ActuatedPanel):
         raise TypeError(f'structural tables are built for quad panels (an ActuatedPanel), '
@@ -85,6 +95,8 @@ def structural_tables(actuated, mesh=PanelMesh(), samples=129, cache=True, progr
     if isinstance(samples, bool) or not isinstance(samples, int) or samples < 3:
         raise ValueError(f'samples must be an integer of at least 3, got {samples!r}')
     path_of_file = cache_directory() / f'{cache_key(actuated, mesh, samples)}.npz'
+    if not cache and not trace:
+        raise ValueError('structural tables need the cache or leave to trace the path')
     if not cache:
         return _from_path(actuated, structural_path(actuated, mesh, progress=progress),
                           samples)
@@ -94,21 +106,27 @@ def structural_tables(actuated, mesh=PanelMesh(), samples=129, cache=True, progr
         cached = _read(path_of_file, samples)
         if cached is not None:
             return cached
+        if not trace:
+            raise NotCached(f'no structural cushion map of this panel design is cached (entry '
+                            f'{path_of_file.name} in {path_of_file.parent})')
         tables = _from_path(actuated, structural_path(actuated, mesh, progress=progress),
                             samples)
         _write(path_of_file, tables)
     return tables
 
 
-def structural_cushion_map(panels, mesh=PanelMesh(), samples=129, cache=True):
+def structural_cushion_map(panels, mesh=PanelMesh(), samples=129, cache=True, trace=True,
+                           progress=None):
     """Return the :class:`~..actuation.cushion_map.CushionMap` of quad panels from the structure.
 
-    Panels of one design share one path (and one cache entry).
+    Panels of one design share one path (and one cache entry); ``cache``, ``trace`` and
+    ``progress`` as for :func:`structural_tables`.
     """
     distinct, row = distinct_panels(list(panels))
     if not distinct:
         raise ValueError('a cushion map needs at least one panel')
-    tables = [structural_tables(panel, mesh, samples, cache) for panel in distinct]
+    tables = [structural_tables(panel, mesh, samples, cache, progress, trace)
+              for panel in distinct]
     return CushionMap.from_tables([np.stack(column) for column in zip(*tables)], row)
 
 

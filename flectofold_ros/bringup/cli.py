@@ -28,6 +28,7 @@ from flectofold_ros.bringup.fault_script_node import FaultScriptNode
 from flectofold_ros.bringup.monitor import Monitor
 from flectofold_ros.bringup.plan import local_time, MAX_LAG_S, plan_day
 from flectofold_ros.bringup.supervision import RestartPolicy, Supervisor
+from flectofold_ros.commands.structure_cache import prepare_structural_map
 from flectofold_ros.interfaces import publisher
 from flectofold_ros.nodes.coordinator import CoordinatorNode
 from flectofold_ros.nodes.panel import MAX_CALL_S, start_panels
@@ -548,6 +549,8 @@ def main(args=None):
         facade = load_facade(options.facade or DEFAULT_FACADE)
         plan = plan_day(facade, options.facade, options.date, options.start, options.end,
                         options.speedup, options.panel_processes, name=option_name)
+        # before any child starts: they only read the cache, and must start in seconds
+        prepare_structural_map(facade, 'facade')
         return Bringup(options, facade, plan)
 
     return run_nodes('facade', args, start, interrupted_code=INTERRUPTED)

@@ -201,7 +201,7 @@ def terminal_plant(register_map, facade, panel_ids=None, circuit=DEMONSTRATOR_PL
     if len(panel_ids) != register_map.count:
         raise ValueError(f'{register_map.source} has {register_map.count} channel(s) for '
                          f'{len(panel_ids)} panel(s)')
-    return facade_plant(*facade_actuation(facade, panel_ids), circuit, seed)
+    return facade_plant(*facade_actuation(facade, panel_ids, trace=False), circuit, seed)
 
 
 async def serve(terminal, host=DEFAULT_HOST, port=0, started=None, stop=None):

@@ -608,7 +608,7 @@ def build_loops(node, panel_ids, seed=0):
     else:
         loops = facade_loops(facade, panel_ids, settings['control_period_s'], parameters,
                              seed=seed, quiet_period_s=settings['simulation.quiet_period_s'],
-                             max_call_s=MAX_CALL_S)
+                             max_call_s=MAX_CALL_S, trace=False)
     compile_kernels()  # here, before the panels report ready, not in their first tick
     origins = facade.origin_m[panel_indices(facade, panel_ids)] @ facade.facade_to_enu.T
     return loops, origins, facade.panel_ids, panel_kind(facade.panels[0])
@@ -634,7 +634,7 @@ def _modbus_loops(node, settings, facade, panel_ids, parameters):
     driver = ModbusCushions(register_map, settings['modbus.host'], settings['modbus.port'],
                             timeout_s=settings['modbus.timeout_s'])
     return facade_loops(facade, panel_ids, settings['control_period_s'], parameters,
-                        driver=driver)
+                        driver=driver, trace=False)
 
 
 class PanelProgram(Program):

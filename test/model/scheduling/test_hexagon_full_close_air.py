@@ -14,7 +14,7 @@ from flectofold_model.scheduling.facade_schedule import full_close_air_nl, repre
 BIGGER = HexagonPanel(circumradius_m=0.66, fold_line_sag_m=0.06, hinge_width_m=0.03,
                       prefold_rad=HEXAGON_MODULE.prefold_rad)
 #: A stand-in for a facade description: what the air budget and the table's panel read.
-FACADE = SimpleNamespace(panels=[HEXAGON_MODULE, BIGGER, HEXAGON_MODULE])
+FACADE = SimpleNamespace(panels=[HEXAGON_MODULE, BIGGER, HEXAGON_MODULE], cushion_map='energy')
 
 
 def test_full_close_air_of_hexagons_is_what_the_plant_fills():
@@ -39,6 +39,6 @@ def test_the_embedded_hexagon_facade_has_an_air_budget_per_panel():
 
 
 def test_the_table_is_built_for_the_median_hexagon_by_area():
-    facade = SimpleNamespace(panels=[BIGGER, HEXAGON_MODULE, BIGGER])
+    facade = SimpleNamespace(panels=[BIGGER, HEXAGON_MODULE, BIGGER], cushion_map='energy')
     assert representative_panel(facade) == BIGGER
     assert np.isclose(representative_panel(FACADE).area_m2, HEXAGON_MODULE.area_m2)

@@ -1,0 +1,75 @@
+"""A facade's cushion map as its description chooses: energy statics or the structure.
+
+``actuation: {cushion_map: structural}`` in a quad facade's description makes the plant, the
+pressure loops and the scheduler's air per move take the pressure, air and compliance of each
+panel from the structural model (:mod:`.cushion_tables`) instead of the energy statics. The
+structure is traced for one panel, the facade's median panel by footprint area
+(:func:`~flectofold_model.facade.footprint.representative_panel`, as the shading table), and
+its map drives every panel of the facade: one path costs minutes of CPU, and the panels of one
+facade differ by millimetres in size and tenths of a degree in pre-fold (what that leaves out,
+measured with the energy statics: ``msg_docs/structure.md``). Only cached maps are read where
+a process must start in seconds; the ``facade`` bringup and ``structure_cache`` compute them.
+The energy choice (the default) keeps each panel's own statics.
+"""
+
+import numpy as np
+
+from flectofold_model.actuation import actuated_like, ATMOSPHERIC_PRESSURE_PA
+from flectofold_model.actuation.cushion_map import CushionMap
+from flectofold_model.facade.footprint import representative_index
+from flectofold_model.structure.cushion_tables import NotCached, structural_cushion_map
+
+#: What to do when a structural map is not cached: the command that computes it.
+WARM_UP = 'structure_cache --facade FILE'
+
+
+def facade_cushion_map(facade, model, trace=True, progress=None):
+    """Return the :class:`CushionMap` of ``model``'s panels (N) as ``facade`` chooses.
+
+    Parameters
+    ----------
+    facade : Facade
+        Its ``cushion_map``: ``'energy'`` or ``'structural'``.
+    model : StaticActuationModel
+        The energy statics of the panels the map is for (N panels of ``facade``).
+    trace : bool
+        Structural only: trace the median panel's path when the cache does not have it
+        (minutes of CPU). False raises :class:`~.cushion_tables.NotCached` naming the command
+        that computes it.
+    progress : callable, optional
+        Structural only: passed to the path tracer.
+    """
+    if facade.cushion_map == 'energy':
+        return CushionMap(model)
+    return median_structural_map(facade, len(model), trace, progress)
+
+
+def median_structural_map(facade, count=1, trace=True, progress=None):
+    """Return the structural map of ``facade``'s median panel for ``count`` panels.
+
+    ``trace`` and ``progress`` as for :func:`facade_cushion_map`.
+    """
+    median = representative_index(facade)
+    panel = actuated_like(facade.panels[median])
+    try:
+        return structural_cushion_map([panel] * count, trace=trace, progress=progress)
+    except NotCached as error:
+        raise NotCached(f'facade {facade.name} takes its cushion map from the structure '
+                        f'(actuation.cushion_map: structural), traced for its median panel '
+                        f'{facade.panel_ids[median]}: {error}; compute it once with '
+                        f'`{WARM_UP}` (minutes of CPU; `facade` does it before it starts '
+                        f'its panels)') from None
+
+
+def structural_close_air_nl(facade, dead_volume_m3):
+    """Free air [NL] (N,) that closes each panel from open, by the facade's structural map.
+
+    ``(p_closed V_closed - p_atm V_open) / p_atm`` with absolute pressures and the tubing's
+    dead volume ``dead_volume_m3`` [m3], at the map's closures 1 and 0. Reads the cached map
+    only (:class:`~.cushion_tables.NotCached` names the command that computes it).
+    """
+    cushion_map = median_structural_map(facade, trace=False)
+    pressure, volume = (table[0] for table in cushion_map.tables()[:2])
+    closed = (ATMOSPHERIC_PRESSURE_PA + pressure[-1]) * (volume[-1] + dead_volume_m3)
+    opened = ATMOSPHERIC_PRESSURE_PA * (volume[0] + dead_volume_m3)
+    return np.full(len(facade), (closed - opened) / ATMOSPHERIC_PRESSURE_PA * 1e3)
