@@ -6,7 +6,9 @@ is a few hundred bytes that stand for billions of values, and whatever walks or 
 loaded value (a ``repr`` in an error message) expands them all. :func:`load_yaml` refuses every
 alias, naming its line and column, and refuses a document longer than :data:`MAX_CHARACTERS`,
 with more than :data:`MAX_NODES` nodes or nested deeper than :data:`MAX_DEPTH`, before it is
-built. :func:`read_yaml` reads at most one character more than the bound from a file.
+built; a mapping that gives a key twice is refused naming both lines (PyYAML would keep the
+last value without a word). :func:`read_yaml` reads at most one character more than the bound
+from a file.
 :func:`short_repr` quotes a value in an error message in at most a line.
 
 No rclpy: the model, the nodes and the recorder's readers share it.
@@ -18,6 +20,7 @@ import yaml
 from yaml.composer import Composer
 from yaml.constructor import SafeConstructor
 from yaml.events import AliasEvent
+from yaml.nodes import ScalarNode
 from yaml.resolver import Resolver
 
 try:  # libyaml's parser when the wheel has it (fast); composing stays here, bounded
@@ -47,7 +50,35 @@ class YAMLInputError(ValueError):
     """A YAML document refused: malformed, too large, too deep, or with aliases."""
 
 
-class _BoundedComposer(Composer):
+class DuplicateKeyError(YAMLInputError):
+    """A mapping that gives one key twice: YAML leaves it to the reader, PyYAML keeps the last."""
+
+
+class UniqueKeys:
+    """Composer mix-in: a mapping that gives one key twice is refused, naming both lines.
+
+    Keys are compared as written with their resolved tag (``1`` and ``'1'`` differ, as they do
+    in the loaded mapping).
+    """
+
+    #: Name of the document in messages; composers that know it set it.
+    _source = 'YAML'
+
+    def compose_mapping_node(self, anchor):
+        node = super().compose_mapping_node(anchor)
+        first = {}
+        for key, _ in node.value:
+            if not isinstance(key, ScalarNode):
+                continue
+            seen = first.setdefault((key.tag, key.value), key.start_mark)
+            if seen is not key.start_mark:
+                raise DuplicateKeyError(
+                    f'{self._source}: {_where(key.start_mark)}: key {short_repr(key.value)} '
+                    f'given twice (first at {_where(seen)}); one value would silently win')
+        return node
+
+
+class _BoundedComposer(UniqueKeys, Composer):
     """The PyYAML composer, counting nodes and depth, refusing aliases."""
 
     def __init__(self, source):

@@ -24,6 +24,7 @@ import re
 
 import yaml
 
+from flectofold_model.safe_yaml import UniqueKeys, YAMLInputError
 from flectofold_ros.fault_injection import FaultRequest, FaultRequestError, parse_request
 
 #: Longest script accepted [characters] and most entries.
@@ -67,8 +68,11 @@ def load_document(text, source='fault script'):
     if len(text) > MAX_CHARACTERS:
         raise FaultScriptError(f'{source}: longer than {MAX_CHARACTERS} characters')
     loader = _ScriptLoader(text)
+    loader._source = source
     try:
         return loader.get_single_data()
+    except YAMLInputError as error:
+        raise FaultScriptError(str(error)) from None
     except yaml.YAMLError as error:
         mark = getattr(error, 'problem_mark', None)
         where = f'line {mark.line + 1}: ' if mark is not None else ''
@@ -144,8 +148,8 @@ class _Day:
                                 f'{self.end:%H:%M:%S}')
 
 
-class _ScriptLoader(yaml.SafeLoader):
-    """The safe loader without aliases, anchors or YAML 1.1's sexagesimal numbers."""
+class _ScriptLoader(UniqueKeys, yaml.SafeLoader):
+    """The safe loader without aliases, anchors, twice-given keys or YAML 1.1's sexagesimals."""
 
     def compose_node(self, parent, index):
         event = self.peek_event()

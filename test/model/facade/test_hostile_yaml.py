@@ -131,6 +131,34 @@ def test_malformed_yaml_is_one_line_with_the_place():
     assert 'malformed YAML: line ' in message and '\n' not in message
 
 
+def test_a_key_given_twice_is_refused_naming_both_lines(tmp_path):
+    # A second latitude_deg, read last-wins, ran a Stuttgart facade at -33 deg with exit 0.
+    path = tmp_path / 'twice.yaml'
+    text = VALID.replace('site: {', 'site: {latitude_deg: -33.0, ', 1)
+    assert text != VALID
+    path.write_text(text)
+    message = (r"twice.yaml: line \d+, column \d+: key 'latitude_deg' given twice \(first at "
+               r'line \d+, column \d+\); one value would silently win')
+    with pytest.raises(FacadeError, match=message):
+        load_facade(path)
+
+
+@pytest.mark.parametrize('text, message', [
+    ('a: 1\nb: {c: 2, c: 3}\n',
+     "line 2, column 11: key 'c' given twice (first at line 2, column 5)"),
+    ('- {x: 1}\n- x: 1\n  y: 2\n  x: 3\n',
+     "line 4, column 3: key 'x' given twice (first at line 2, column 3)"),
+])
+def test_twice_given_keys_are_refused_at_any_depth(text, message):
+    with pytest.raises(safe_yaml.DuplicateKeyError) as refused:
+        safe_yaml.load_yaml(text, 'doc')
+    assert str(refused.value) == f'doc: {message}; one value would silently win'
+
+
+def test_keys_that_differ_in_type_are_two_keys():
+    assert safe_yaml.load_yaml("1: a\n'1': b\n") == {1: 'a', '1': 'b'}
+
+
 def test_python_tags_are_not_constructed():
     with pytest.raises(FacadeError, match='could not determine a constructor'):
         build_facade(VALID.replace('name: test', 'name: !!python/object/apply:os.system [id]'))

@@ -67,6 +67,8 @@ def test_a_day_past_midnight_takes_the_times_after_it():
     ("- &a {at: 60, panels: '*', fault: sensor_stuck}\n- *a", 'anchors and aliases'),
     ('- {at: 60, panels: &p [r00c00], fault: sensor_stuck}', 'anchors and aliases'),
     ("- {at: 60, panels: '*', fault: sensor_stuck", 'line 1'),
+    ("- {at: 60, panels: '*', fault: sensor_stuck, at: 90}",
+     "line 1, column 46: key 'at' given twice"),
 ])
 def test_a_bad_script_is_refused_naming_the_entry_and_the_reason(text, reason):
     with pytest.raises(FaultScriptError, match=reason):

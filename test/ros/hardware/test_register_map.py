@@ -127,6 +127,21 @@ def test_a_file_that_cannot_be_read_or_is_not_yaml_is_refused(tmp_path):
         load_register_map(bad)
 
 
+def test_a_key_given_twice_is_refused_naming_both_lines(tmp_path):
+    # On a shared bus a second unit_id, read last-wins, addresses another device.
+    text = EXAMPLE.read_text()
+    twice = tmp_path / 'twice.yaml'
+    twice.write_text(text + 'unit_id: 7\n')
+    first = 1 + next(number for number, line in enumerate(text.splitlines())
+                     if line.startswith('unit_id:'))
+    last = len(text.splitlines()) + 1
+    with pytest.raises(RegisterMapError) as refused:
+        load_register_map(twice)
+    assert str(refused.value) == (
+        f"{twice}: line {last}, column 1: key 'unit_id' given twice (first at line {first}, "
+        f'column 1); one value would silently win')
+
+
 REGULATORS = Path(__file__).resolve().parents[3] / 'config' / 'modbus_regulators.yaml'
 
 
