@@ -12,7 +12,7 @@ import importlib
 import os
 import sys
 
-from flectofold_ros.runner import Interrupted, stop_signals
+from flectofold_ros.runner import die_with_parent, Interrupted, stop_signals
 
 #: Executable -> (module with ``main(args=None)``, exit code when stopped while it loads):
 #: a node asked to stop ends normally (0), a day or a command cut short says so (130).
@@ -66,6 +66,7 @@ def run(name, args=None, ending=False):
     module_name, stopped_code = EXECUTABLES[name]
     with stop_signals() as stop:
         try:
+            die_with_parent()
             return importlib.import_module(module_name).main(args)
         except Interrupted:
             return stopped_code

@@ -26,11 +26,41 @@ offline ``replay --to-rrd``, ``fold_table``, ``day_report``) run without it.
 """
 
 from contextlib import contextmanager
+import ctypes
+import os
 import signal
 import sys
 
 #: Seconds the executor waits for an event before the loop looks at the stop signals again.
 SPIN_PERIOD_S = 0.1
+#: Environment variable by which a supervising process (the ``facade`` bringup) asks a child
+#: to die with it: the supervisor's process id.
+PARENT_ENVIRONMENT = 'FLECTOFOLD_DIE_WITH_PARENT'
+#: ``prctl`` option of Linux: the signal the kernel sends when the parent dies.
+_PR_SET_PDEATHSIG = 1
+
+
+def die_with_parent(environ=os.environ):
+    """Have SIGTERM sent to this process when its supervisor dies, even by SIGKILL.
+
+    Does something only when ``environ`` names the supervisor (:data:`PARENT_ENVIRONMENT`),
+    which it then forgets, so that the process's own children do not inherit it. Linux's
+    ``PR_SET_PDEATHSIG``: the kernel signals when the thread that started the process ends
+    (the bringup starts and restarts its children on its main thread). A supervisor that died
+    before the request was made is no longer the parent: the process then stops at once. The
+    SIGTERM is a stop request as any other (:class:`StopSignals`): a panel process shuts its
+    valves, a recorder closes its bag. Return whether the request was made (False elsewhere
+    than Linux, or with no supervisor named).
+    """
+    supervisor = environ.pop(PARENT_ENVIRONMENT, None)
+    if not supervisor or not sys.platform.startswith('linux'):
+        return False
+    libc = ctypes.CDLL(None, use_errno=True)
+    if libc.prctl(_PR_SET_PDEATHSIG, int(signal.SIGTERM), 0, 0, 0) != 0:
+        return False
+    if str(os.getppid()) != supervisor:  # it died between our start and the request
+        os.kill(os.getpid(), signal.SIGTERM)
+    return True
 
 
 class Interrupted(BaseException):

@@ -17,10 +17,13 @@ Policy (``msg_docs/bringup.md``, "Supervision"):
 """
 
 from dataclasses import dataclass, field
+import os
 import signal
 import subprocess
 import time
 from typing import Callable, Optional
+
+from flectofold_ros.runner import PARENT_ENVIRONMENT
 
 #: Exit code of an executable that refused its input (``flectofold_ros.runner``).
 BAD_INPUT = 2
@@ -115,7 +118,11 @@ class Child:
         return max(self.starts - 1, 0)
 
     def start(self, now_s):
-        self.process = subprocess.Popen(self.command(self.starts), env=self.env)
+        # The child asks the kernel to stop it when this process dies, even by SIGKILL
+        # (runner.die_with_parent): no orphan of a killed bringup runs on into the next day.
+        env = dict(os.environ if self.env is None else self.env,
+                   **{PARENT_ENVIRONMENT: str(os.getpid())})
+        self.process = subprocess.Popen(self.command(self.starts), env=env)
         self.starts += 1
         self.started_at_s, self.restart_at_s = now_s, None
 

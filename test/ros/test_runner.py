@@ -200,3 +200,68 @@ def test_an_executable_run_in_process_gives_the_stop_signals_back():
     executables.run('fold_table', ['fold_table', '--steps', '2'])
     assert (signal.getsignal(signal.SIGINT), signal.getsignal(signal.SIGTERM)) == before
     assert signal.SIG_IGN not in before
+
+
+SUPERVISED = """
+import os, sys, time
+sys.path.insert(0, sys.argv[1])
+from flectofold_ros import executables
+executables.EXECUTABLES['supervised'] = ('supervised_module', 130)
+sys.exit(executables.run('supervised', [], ending=True))
+"""
+SUPERVISED_MODULE = """
+import os, sys, time
+from flectofold_ros.runner import PARENT_ENVIRONMENT
+def main(args=None):
+    print('started', PARENT_ENVIRONMENT in os.environ, flush=True)
+    time.sleep(60.0)
+    return 0
+"""
+
+
+def supervised(tmp_path, parent_pid):
+    import subprocess
+    import sys
+    (tmp_path / 'supervised_module.py').write_text(SUPERVISED_MODULE)
+    from flectofold_ros.runner import PARENT_ENVIRONMENT
+    return subprocess.Popen([sys.executable, '-c', SUPERVISED, str(tmp_path)],
+                            env=dict(os.environ, **{PARENT_ENVIRONMENT: parent_pid}),
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+
+
+def test_a_child_whose_supervisor_died_before_it_asked_stops_at_once(tmp_path):
+    child = supervised(tmp_path, '1')  # pid 1 is not its parent: the supervisor is gone
+    output, error = child.communicate(timeout=30)
+    assert child.returncode == 130 and output == '' and 'Traceback' not in error, error
+
+
+def test_a_child_of_a_supervisor_is_stopped_when_the_supervisor_dies(tmp_path):
+    """The supervisor here is a shell that starts the child, prints its pid and is killed."""
+    import subprocess
+    import sys
+    (tmp_path / 'supervised_module.py').write_text(SUPERVISED_MODULE)
+    from flectofold_ros.runner import PARENT_ENVIRONMENT
+    shell = subprocess.Popen(
+        ['bash', '-c', f'{PARENT_ENVIRONMENT}=$$ "{sys.executable}" -c "$0" "$1" & echo $!; '
+                       'wait', SUPERVISED, str(tmp_path)],
+        stdout=subprocess.PIPE, text=True)
+    child_pid = int(shell.stdout.readline())
+    assert shell.stdout.readline().startswith('started False')  # not passed on further
+    shell.kill()
+    shell.wait(timeout=30)
+    deadline = time.monotonic() + 30.0
+    while time.monotonic() < deadline and running(child_pid):
+        time.sleep(0.05)
+    stopped = not running(child_pid)
+    if not stopped:
+        os.kill(child_pid, signal.SIGKILL)
+    assert stopped
+
+
+def running(pid):
+    """Whether process ``pid`` runs (neither gone nor a zombie waiting to be reaped)."""
+    try:
+        with open(f'/proc/{pid}/stat') as stat:
+            return stat.read().split(')')[-1].split()[0] != 'Z'
+    except FileNotFoundError:
+        return False

@@ -6,13 +6,17 @@ summary lists the death and the restart. With no restarts allowed the panels are
 good and the bringup exits 3.
 """
 
+import os
 import queue
+import signal
 import subprocess
 import threading
 import time
 
 import pytest
 from ros_graph import domain_for, Graph
+from rosbags.rosbag2 import Reader
+import yaml
 
 from flectofold_ros import contract
 from flectofold_ros.interfaces import subscription
@@ -172,3 +176,42 @@ def test_a_hung_panel_process_is_killed_and_restarted(small_facade_file):
     assert bringup.returncode == 0, text
     assert 'panels reporting: 4/4' in text and '1 deaths, 1 restarts' in text, text
     assert 'panel_group 0/2 died at 11:' in text and 'hung (silent for 15 s), killed' in text
+
+
+def alive(pid):
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    return not open(f'/proc/{pid}/stat').read().split(')')[-1].split()[0] == 'Z'
+
+
+def test_a_bringup_killed_with_sigkill_leaves_no_child_running_and_a_complete_bag(
+        small_facade_file, tmp_path):
+    # Before, its panel processes, recorder and bridge ran on as orphans (still there after
+    # 60 s), holding the bag's lock, and would mix into the next run on the domain.
+    graph, children = Graph(domain_for(59)), []
+    try:
+        bringup, output = start_day(graph, small_facade_file, '11:40', '--panel-processes', '2',
+                                    '--record', '--rerun', 'none', '--out', str(tmp_path / 'out'))
+        children = [int(pid) for pid in subprocess.run(
+            ['pgrep', '-P', str(bringup.pid)], capture_output=True, text=True).stdout.split()]
+        assert len(children) == 4, children  # two panel processes, the recorder, the bridge
+        graph.spin_for(2.0)  # the recorder writes a little of the day
+        subprocess.run(['kill', '-KILL', str(bringup.pid)], check=True)
+        bringup.wait(timeout=30)
+        deadline = time.monotonic() + 60.0
+        while any(alive(pid) for pid in children) and time.monotonic() < deadline:
+            time.sleep(0.2)
+        survivors = [pid for pid in children if alive(pid)]
+    finally:
+        for pid in children:
+            if alive(pid):  # orphans of a failure would mix into the next test's domain
+                os.kill(pid, signal.SIGKILL)
+        graph.close()
+    assert survivors == [], survivors
+    run = next((tmp_path / 'out').glob('2026-*'))
+    metadata = yaml.safe_load((run / 'bag' / 'metadata.yaml').read_text())
+    assert metadata['rosbag2_bagfile_information']['message_count'] > 0
+    with Reader(run / 'bag') as reader:  # the recorder closed it on its SIGTERM
+        assert reader.message_count == sum(1 for _ in reader.messages()) > 0
