@@ -9,11 +9,12 @@ bag offline instead: no graph, no rclpy. Contract: ``msg_docs/replay.md``.
 
 import argparse
 import math
+from pathlib import Path
 import sys
 import time
 
 from flectofold_model.facade import DEFAULT_FACADE, load_facade
-from flectofold_ros.recording.bag_segments import BagError
+from flectofold_ros.recording.bag_segments import BagError, unreadable_segments
 from flectofold_ros.rerun.bag_to_rrd import convert
 from flectofold_ros.runner import Interrupted, run_command
 
@@ -35,6 +36,9 @@ def parse_arguments(argv):
                         'the embedded demonstrator)')
     parser.add_argument('--color-by', default='closure', choices=('closure', 'pressure'),
                         help='panel colour for --to-rrd')
+    parser.add_argument('--skip-unreadable', action='store_true',
+                        help='leave out segment files that cannot be read (named) and play or '
+                        'convert the rest; without it such a bag is refused')
     parser.add_argument('--flush-period', type=float, default=DEFAULT_FLUSH_PERIOD_S,
                         help='--to-rrd: bag seconds between logging what changed (default 1)')
     options = parser.parse_args(argv)
@@ -49,13 +53,24 @@ def to_rrd(options):
     """Convert the bag offline (no graph, no rclpy); print what was written."""
     facade = load_facade(options.facade or DEFAULT_FACADE)
     started = time.monotonic()
+    say_skipped(options)
     counts = convert(options.bag, options.to_rrd, facade, options.color_by,
                      options.flush_period, topics=options.topics,
-                     progress=lambda text: print(f'replay: {text}', flush=True))
+                     progress=lambda text: print(f'replay: {text}', flush=True),
+                     skip_unreadable=options.skip_unreadable)
     print(f'replay: {options.to_rrd}: {counts.meshes_logged} meshes, {counts.samples_logged} '
           f'samples, {counts.events_logged} events, {counts.rejected} rejected, in '
           f'{time.monotonic() - started:.1f} s', flush=True)
     return 0
+
+
+def say_skipped(options):
+    """Print one line per segment file ``--skip-unreadable`` leaves out."""
+    if not options.skip_unreadable or not Path(options.bag).is_dir():
+        return
+    for name, why in unreadable_segments(Path(options.bag)):
+        print(f'replay: skipping {name}: it cannot be read ({why}); `bag_reindex '
+              f'{options.bag}` keeps its whole messages', flush=True)
 
 
 def without_ros_args(argv):
@@ -72,7 +87,10 @@ def without_ros_args(argv):
 
 
 def main(args=None):
-    """``ros2 run flectofold_ros replay BAG [--rate R] [--loop] [--topics ...] [--to-rrd OUT]``."""
+    """``ros2 run flectofold_ros replay BAG [--rate R] [--loop] [--topics ...] [--to-rrd OUT]``.
+
+    Also ``--skip-unreadable``, ``--facade``, ``--color-by``, ``--flush-period``.
+    """
     try:
         options = parse_arguments(without_ros_args(sys.argv if args is None else args)[1:])
         if options.to_rrd:
@@ -83,6 +101,7 @@ def main(args=None):
         from flectofold_ros.nodes.replay import play
     except Interrupted:
         return 0
+    say_skipped(options)
     return play(options, args)
 
 

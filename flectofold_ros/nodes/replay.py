@@ -49,7 +49,8 @@ class Player(Node):
         if self.finished or not self._matched():
             return
         if self._messages is None:
-            self._messages = read_messages(self.options.bag, self.selected)
+            self._messages = read_messages(self.options.bag, self.selected,
+                                           self.options.skip_unreadable)
             self._started, self._first_ns = time.monotonic(), None
         budget_end = time.monotonic() + PLAY_BUDGET_S
         while time.monotonic() < budget_end:
@@ -106,7 +107,7 @@ class Playing(Program):
 def play(options, args):
     """Publish the bag's messages with their recorded spacing; return the exit code."""
     def start():
-        topics = bag_topics(options.bag)
+        topics = bag_topics(options.bag, options.skip_unreadable)
         selected = options.topics or sorted(topics)
         require_topics(options.bag, topics, selected)  # before anything joins the graph
         return Playing(options, topics, selected)

@@ -85,6 +85,8 @@ import yaml
 BAG_VERSION = 9
 """rosbag2 metadata version written (Jazzy's)."""
 WORKING_DIR = '.open_segment'
+#: The first bytes of every MCAP file (the MCAP specification, "Magic").
+MCAP_MAGIC = b'\x89MCAP0\r\n'
 METADATA = 'metadata.yaml'
 """The bag's metadata file."""
 """Name of the hidden working directory of the open segment inside the bag."""
@@ -569,7 +571,11 @@ def _file_entry(segment: Segment) -> dict:
 
 
 def _open_reader(path: PathLike) -> Reader:
-    """Open a rosbag2 bag (directory or single storage file) or raise BagError."""
+    """Open a rosbag2 bag (directory or single storage file) or raise BagError.
+
+    A bag directory one of whose segment files cannot be read is refused naming the file,
+    with the two ways on: ``bag_reindex`` (keeps its whole messages) or playing the rest.
+    """
     bag = Path(path)
     if not bag.exists():
         raise BagError(f'bag {bag} does not exist')
@@ -577,8 +583,41 @@ def _open_reader(path: PathLike) -> Reader:
         reader = Reader(bag)
         reader.open()
     except Exception as err:  # rosbags raises ReaderError, FileNotFoundError, KeyError, ...
+        unreadable = unreadable_segments(bag) if bag.is_dir() else []
+        if unreadable:
+            names = ', '.join(f'{name} ({why})' for name, why in unreadable)
+            raise BagError(f'bag {bag}: segment file {names} cannot be read; `bag_reindex '
+                           f'{bag}` keeps its whole messages, or --skip-unreadable plays the '
+                           f'rest') from err
         raise BagError(f'{bag} is not a readable rosbag2 bag: {err}') from err
     return reader
+
+
+def unreadable_segments(bag: Path) -> list[tuple[str, str]]:
+    """Segment files a bag directory's metadata lists that cannot be read: (name, reason)."""
+    try:
+        files = _segment_files(bag)
+    except Exception:  # no metadata or one that does not parse: no list to check
+        return []
+    found = []
+    for file in files:
+        try:
+            with Reader(file):
+                pass
+        except Exception as err:  # rosbags raises ReaderError, FileNotFoundError, ...
+            found.append((file.name, _one_line(err)))
+    return found
+
+
+def _one_line(error: Exception, limit: int = 120) -> str:
+    text = ' '.join(str(error).split()) or type(error).__name__
+    return text if len(text) <= limit else text[:limit - 3] + '...'
+
+
+def _readable_files(bag: Path) -> list[Path]:
+    """Return the segment files of a bag directory that can be read, in the metadata's order."""
+    skipped = {name for name, _ in unreadable_segments(bag)}
+    return [file for file in _segment_files(bag) if file.name not in skipped]
 
 
 def _is_latched(conn: Connection) -> bool:
@@ -596,8 +635,18 @@ def topic_list(topics: Iterable[str], shown: int = 6) -> str:
     return f'{len(names)} topics: {", ".join(names[:shown])}{more}'
 
 
-def bag_topics(path: PathLike) -> dict[str, tuple[str, bool]]:
-    """Topics of a bag: name -> (msgtype, latched), latched from the offered QoS durability."""
+def bag_topics(path: PathLike, skip_unreadable: bool = False) -> dict[str, tuple[str, bool]]:
+    """Topics of a bag: name -> (msgtype, latched), latched from the offered QoS durability.
+
+    ``skip_unreadable``: of the segment files that can be read only (a bag directory).
+    """
+    if skip_unreadable and Path(path).is_dir() and unreadable_segments(Path(path)):
+        topics = {}
+        for file in _readable_files(Path(path)):
+            with Reader(file) as reader:
+                for conn in reader.connections:
+                    topics.setdefault(conn.topic, (conn.msgtype, _is_latched(conn)))
+        return topics
     reader = _open_reader(path)
     try:
         return {conn.topic: (conn.msgtype, _is_latched(conn)) for conn in reader.connections}
@@ -642,14 +691,26 @@ def _segment_messages(file: Path, topics: set[str]) -> Iterator[Message]:
             yield conn.topic, conn.msgtype, t_ns, bytes(raw)
 
 
-def read_messages(path: PathLike, topics: Optional[Iterable[str]] = None) -> Iterator[Message]:
+def read_messages(path: PathLike, topics: Optional[Iterable[str]] = None,
+                  skip_unreadable: bool = False) -> Iterator[Message]:
     """Messages of a bag as ``(topic, msgtype, t_ns, raw)`` in time order over all segments.
 
     ``t_ns`` is the recorded time [ns], ``raw`` the CDR bytes. ``topics`` restricts the
     topics; a name the bag does not have raises BagError (before the first message), as does a
     path that is not a bag. rosbags reads a split bag segment after segment, so uncompressed
     MCAP segments are merged by timestamp here, in case late messages made them overlap.
+    ``skip_unreadable``: a bag directory's segment files that cannot be read are left out (see
+    :func:`unreadable_segments`), the others played.
     """
+    bag = Path(path)
+    if skip_unreadable and bag.is_dir() and unreadable_segments(bag):
+        available = bag_topics(bag, skip_unreadable=True)
+        names = set(available) if topics is None else {topics} if isinstance(
+            topics, str) else set(topics)
+        require_topics(path, available, names)
+        files = _readable_files(bag)
+        return heapq.merge(*(_segment_messages(file, names) for file in files),
+                           key=lambda message: message[2])
     reader = _open_reader(path)
     try:
         conns = _selected(reader, path, topics)
@@ -780,19 +841,38 @@ def _check_segment(file: Path, listed_count: Optional[int], read_counts: dict[st
         problems.append(f'{file.name} holds {total} messages, metadata.yaml says {listed_count}')
 
 
-def segment_index(bag: Path, name: str) -> Optional[int]:
-    """Index ``i`` of a segment file name ``<bag name>_<i>.mcap``; None for other names."""
+def segment_index(name: str) -> Optional[int]:
+    """Index ``i`` of a segment file name ``<prefix>_<i>.mcap``; None for other names.
+
+    The prefix is the bag directory's name when the recorder wrote the file, whatever the
+    directory is called now (a bag renamed or copied keeps its files' names).
+    """
     stem, dot, suffix = name.rpartition('.')
     prefix, _, index = stem.rpartition('_')
-    if dot and suffix == 'mcap' and prefix == bag.name and index.isdigit():
+    if dot and suffix == 'mcap' and prefix and index.isdigit():
         return int(index)
     return None
 
 
+def is_mcap(file: Path) -> bool:
+    """Whether ``file`` starts with the MCAP magic: a segment, by its content, not its name."""
+    try:
+        with file.open('rb') as stream:
+            return stream.read(len(MCAP_MAGIC)) == MCAP_MAGIC
+    except OSError:
+        return False
+
+
 def segment_files(bag: Path) -> list[str]:
-    """Names of the segment files ``<bag name>_<i>.mcap`` in ``bag``, in index order."""
-    found = [(segment_index(bag, p.name), p.name) for p in bag.iterdir() if p.is_file()]
-    return [name for index, name in sorted((i, n) for i, n in found if i is not None)]
+    """Names of the segment files in ``bag``: its MCAP files, found by their content.
+
+    In the order of their index (``<prefix>_<i>.mcap``), then of their names; files in the
+    hidden working directories are not segments.
+    """
+    found = [(segment_index(p.name), p.name) for p in bag.iterdir()
+             if p.is_file() and not p.name.startswith('.') and is_mcap(p)]
+    return [name for _, name in sorted(found, key=lambda item: (
+        item[0] is None, -1 if item[0] is None else item[0], item[1]))]
 
 
 def unfinished_segment(bag: Path) -> Optional[Path]:

@@ -37,6 +37,8 @@ from flectofold_ros.recording.bag_segments import (
 
 #: Hidden directory where a recovered segment is written before it joins the bag.
 RECOVERY_DIR = '.reindex'
+#: Directory of the bag where a file that could not be read whole is kept, as it was.
+SET_ASIDE_DIR = 'set_aside'
 
 
 class Recovered(NamedTuple):
@@ -52,6 +54,8 @@ class Recovered(NamedTuple):
     """Bytes at the end of the file that are no complete MCAP record (the lost tail) [bytes]."""
     skipped: dict[str, int]
     """Messages not recovered per topic, with a type unknown to the ROS 2 Jazzy typestore."""
+    set_aside: str = ''
+    """Where the file is kept as it was, relative to the bag (it is never deleted)."""
 
 
 class ReindexReport(NamedTuple):
@@ -73,7 +77,8 @@ class ReindexReport(NamedTuple):
             target = f'into {item.file_name}' if item.file_name else '(nothing to keep)'
             lines.append(f'  recovered {item.message_count} messages from unfinished '
                          f'{item.source} {target}; {item.truncated_bytes} bytes of '
-                         f'truncated tail lost')
+                         f'truncated tail not readable, the file kept as it was in '
+                         f'{item.set_aside}')
             lines += [f'  not recovered: {count} messages of {topic} (type unknown)'
                       for topic, count in item.skipped.items()]
         if not self.recovered:
@@ -97,8 +102,10 @@ def reindex(path: PathLike) -> ReindexReport:
         raise BagError(f'{bag} is not a bag: no {METADATA}, segment or unfinished segment')
     lock = lock_bag(bag)
     try:
+        listed = _listed_files(bag)
         recovered = [_recover(bag, source) for source in _unfinished(bag)]
         segments, topics, digests = _scan(bag)
+        _refuse_to_hide(bag, listed, recovered)
         write_metadata(bag, segments, topics, digests)
         (bag / f'{METADATA}.tmp').unlink(missing_ok=True)
     except OSError as err:
@@ -112,6 +119,31 @@ def reindex(path: PathLike) -> ReindexReport:
             counts[name] += count
     return ReindexReport(bag, [s.file_name for s in segments], sum(counts.values()), counts,
                          recovered)
+
+
+def _listed_files(bag: Path) -> list[str]:
+    """Segment files the bag's metadata.yaml lists now (none if it has none or is unreadable)."""
+    try:
+        info = YAML(typ='safe').load((bag / METADATA).read_text())
+        return [Path(name).name for name in
+                info['rosbag2_bagfile_information']['relative_file_paths']]
+    except Exception:  # no metadata, or one that does not parse: nothing listed to keep
+        return []
+
+
+def _refuse_to_hide(bag: Path, listed: list[str], recovered: list[Recovered]) -> None:
+    """Refuse a metadata.yaml that would drop a file the present one lists and that is gone.
+
+    A rebuilt metadata lists the segment files present; one listed before that is neither
+    present nor recovered was moved or renamed away, and dropping it from the list would hide
+    its messages. Nothing is rewritten then.
+    """
+    present = set(segment_files(bag)) | {item.source for item in recovered}
+    if missing := [name for name in listed if name not in present]:
+        raise BagError(f'{bag}: {METADATA} lists {", ".join(missing)}, which is no longer '
+                       f'there (moved or renamed?); rebuilding it would hide those messages: '
+                       f'nothing rewritten. Put the file(s) back, or move {METADATA} aside to '
+                       f'index what is there')
 
 
 def _unfinished(bag: Path) -> list[Path]:
@@ -130,13 +162,17 @@ def _readable(file: Path) -> bool:
 
 
 def _recover(bag: Path, source: Path) -> Recovered:
-    """Stream-read ``source`` into a closed segment of ``bag`` in its place."""
+    """Stream-read ``source`` into a closed segment of ``bag`` in its place; keep the original.
+
+    The original file is never deleted: it is linked into :data:`SET_ASIDE_DIR` before the
+    recovered segment replaces it, so a reindex cut short at any point loses nothing (run
+    again, it recovers the file again, into another set-aside name).
+    """
     origin = str(source.relative_to(bag))
     if source.parent != bag:
         # The working directory's file becomes the next segment file first, so that a
         # reindex cut short recovers it from there, once.
-        last = max((segment_index(bag, name) for name in segment_files(bag)), default=-1)
-        target = bag / f'{bag.name}_{last + 1}.mcap'
+        target = _next_segment(bag)
         os.replace(source, target)
         _fsync_dir(bag)
         shutil.rmtree(source.parent)
@@ -145,16 +181,42 @@ def _recover(bag: Path, source: Path) -> Recovered:
     shutil.rmtree(work, ignore_errors=True)
     with SegmentedBagWriter(work) as writer:
         count, truncated, skipped = _copy_messages(source, writer)
+    aside = _set_aside(bag, source)
     written = work / f'{RECOVERY_DIR}_0.mcap'
     if written.exists():
         with written.open('rb') as stream:
             os.fsync(stream.fileno())
         os.replace(written, source)
     else:
-        source.unlink()
+        source.unlink()  # its one other name, in the set-aside directory, keeps it
     _fsync_dir(bag)
     shutil.rmtree(work)
-    return Recovered(origin, source.name if count else None, count, truncated, skipped)
+    return Recovered(origin, source.name if count else None, count, truncated, skipped,
+                     str(aside.relative_to(bag)))
+
+
+def _next_segment(bag: Path) -> Path:
+    """Return a free segment file name after the last index of the bag's segment files."""
+    indices = [segment_index(name) for name in segment_files(bag)]
+    last = max((i for i in indices if i is not None), default=-1)
+    target = bag / f'{bag.name}_{last + 1}.mcap'
+    while target.exists():
+        last += 1
+        target = bag / f'{bag.name}_{last + 1}.mcap'
+    return target
+
+
+def _set_aside(bag: Path, file: Path) -> Path:
+    """Give ``file`` a second name in the set-aside directory (a hard link); return it."""
+    folder = bag / SET_ASIDE_DIR
+    folder.mkdir(exist_ok=True)
+    kept, number = folder / file.name, 1
+    while kept.exists():
+        number += 1
+        kept = folder / f'{file.stem}.{number}{file.suffix}'
+    os.link(file, kept)
+    _fsync_dir(folder)
+    return kept
 
 
 def _copy_messages(source: Path, writer: SegmentedBagWriter) -> tuple[int, int, dict[str, int]]:

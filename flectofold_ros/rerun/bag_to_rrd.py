@@ -46,7 +46,7 @@ def decode(raw, msgtype, typestore=TYPESTORE):
 
 def convert(bag_path, rrd_path, facade, color_by='closure', flush_period_s=1.0,
             min_change_rad=1e-3, strict=False, topics=None, progress=None,
-            progress_period_s=5.0):
+            progress_period_s=5.0, skip_unreadable=False):
     """Write ``rrd_path`` from the bag at ``bag_path``; return the scene's counts.
 
     Every published state is kept (the live bridge merges states that arrive between two of
@@ -57,7 +57,7 @@ def convert(bag_path, rrd_path, facade, color_by='closure', flush_period_s=1.0,
     ``progress`` is called with a line of text every ``progress_period_s`` of wall time.
     """
     rrd_path = check_rrd_path(rrd_path)
-    available = bag_topics(bag_path)
+    available = bag_topics(bag_path, skip_unreadable)
     if topics is not None:
         require_topics(bag_path, available, topics)
         available = {topic: available[topic] for topic in topics}
@@ -72,7 +72,8 @@ def convert(bag_path, rrd_path, facade, color_by='closure', flush_period_s=1.0,
     scene.log_static()
     flush_ns, next_flush_ns, decode_errors = round(flush_period_s * 1e9), None, 0
     say, said = progress or (lambda text: None), time.monotonic()
-    for count, (topic, msgtype, t_ns, raw) in enumerate(read_messages(bag_path, wanted)):
+    for count, (topic, msgtype, t_ns, raw) in enumerate(
+            read_messages(bag_path, wanted, skip_unreadable)):
         if count % 256 == 0 and time.monotonic() - said > progress_period_s:
             said = time.monotonic()
             say(f'{count} messages converted, up to '

@@ -107,10 +107,14 @@ def test_reindex_recovers_every_flushed_message(tmp_path):
 def test_reindex_twice_changes_nothing(tmp_path):
     bag = killed_bag(tmp_path / 'killed', 355)
     reindex(bag)
-    before = {p.name: p.read_bytes() for p in bag.iterdir()}
+    before = files_of(bag)
     again = reindex(bag)
     assert again.recovered == [] and again.message_count == 351
-    assert {p.name: p.read_bytes() for p in bag.iterdir()} == before
+    assert files_of(bag) == before
+
+
+def files_of(bag):
+    return {str(p.relative_to(bag)): p.read_bytes() for p in bag.rglob('*') if p.is_file()}
 
 
 def test_a_truncated_tail_is_cut_at_the_last_complete_chunk(tmp_path):
@@ -137,6 +141,70 @@ def test_a_reindex_cut_short_is_finished_by_the_next(tmp_path):
     assert [(r.source, r.file_name, r.message_count) for r in report.recovered] == [
         ('killed_3.mcap', 'killed_3.mcap', 50)]
     assert setpoints(bag) == list(range(350))
+
+
+def test_a_renamed_or_copied_bag_is_found_by_its_content(tmp_path):
+    # Before, only <dirname>_<i>.mcap counted: a renamed bag was rewritten to "0 messages in 0
+    # file(s)", and replay then played nothing with exit 0.
+    bag = killed_bag(tmp_path / 'killed', 355)
+    reindex(bag)
+    renamed = tmp_path / 'renamed'
+    bag.rename(renamed)
+    copied = tmp_path / 'copied'
+    shutil.copytree(renamed, copied)
+    for folder in (renamed, copied):
+        report = reindex(folder)
+        assert report.message_count == 351 and report.files == [
+            'killed_0.mcap', 'killed_1.mcap', 'killed_2.mcap', 'killed_3.mcap']
+        assert setpoints(folder) == list(range(350)) and check_bag(folder).complete
+
+
+def test_a_killed_bag_renamed_before_its_reindex_is_recovered_whole(tmp_path):
+    bag = killed_bag(tmp_path / 'killed', 355)
+    renamed = tmp_path / 'renamed'
+    bag.rename(renamed)
+    report = reindex(renamed)
+    assert report.message_count == 351 and report.recovered[0].file_name == 'renamed_3.mcap'
+    assert setpoints(renamed) == list(range(350))
+
+
+def test_a_damaged_middle_segment_keeps_its_whole_messages_and_the_file_is_set_aside(tmp_path):
+    # Before, the file was replaced by what could be read: the rest was deleted.
+    bag = killed_bag(tmp_path / 'killed', 355)
+    reindex(bag)
+    middle = bag / 'killed_1.mcap'
+    damaged = middle.read_bytes()[:len(middle.read_bytes()) // 2]
+    middle.write_bytes(damaged)
+    report = reindex(bag)
+    item = next(r for r in report.recovered if r.source == 'killed_1.mcap')
+    assert 0 < item.message_count < 100 and item.file_name == 'killed_1.mcap'
+    assert (bag / item.set_aside).read_bytes() == damaged  # kept as it was
+    assert item.set_aside == 'set_aside/killed_1.mcap'
+    kept = setpoints(bag)
+    assert kept == list(range(100)) + list(range(100, 100 + item.message_count)) + \
+        list(range(200, 350))
+    assert check_bag(bag).complete
+    assert 'the file kept as it was in set_aside/killed_1.mcap' in '\n'.join(report.lines())
+
+
+def test_a_file_the_metadata_lists_that_is_gone_is_not_dropped_from_it(tmp_path):
+    bag = killed_bag(tmp_path / 'killed', 355)
+    reindex(bag)
+    metadata = (bag / 'metadata.yaml').read_text()
+    (bag / 'killed_2.mcap').rename(tmp_path / 'elsewhere.mcap')
+    with pytest.raises(BagError, match='metadata.yaml lists killed_2.mcap, which is no longer '
+                                       'there .* nothing rewritten'):
+        reindex(bag)
+    assert (bag / 'metadata.yaml').read_text() == metadata
+
+
+def test_a_file_that_is_no_mcap_is_neither_a_segment_nor_deleted(tmp_path):
+    bag = killed_bag(tmp_path / 'killed', 355)
+    (bag / 'killed_9.mcap').write_bytes(b'')  # created, never written: a crash at creation
+    (bag / 'notes.txt').write_text('recorded on the roof')
+    report = reindex(bag)
+    assert 'killed_9.mcap' not in report.files and report.message_count == 351
+    assert (bag / 'killed_9.mcap').exists() and (bag / 'notes.txt').exists()
 
 
 def test_a_listed_segment_missing_or_miscounted_is_reported(tmp_path):
@@ -185,3 +253,41 @@ def test_bag_reindex_command(tmp_path):
                              capture_output=True, text=True, timeout=60)
     assert missing.returncode == 2 and 'does not exist' in missing.stderr
     assert 'Traceback' not in missing.stderr
+
+
+@pytest.fixture
+def damaged_bag(tmp_path):
+    """Make a complete bag whose middle segment file then loses its second half."""
+    bag = killed_bag(tmp_path / 'killed', 355)
+    reindex(bag)
+    middle = bag / 'killed_1.mcap'
+    middle.write_bytes(middle.read_bytes()[:middle.stat().st_size // 2])
+    return bag
+
+
+def test_a_bag_with_a_damaged_segment_is_refused_naming_the_file(damaged_bag):
+    with pytest.raises(BagError, match=r'segment file killed_1.mcap \(.*\) cannot be read; '
+                                       rf'`bag_reindex {damaged_bag}` keeps its whole messages, '
+                                       r'or --skip-unreadable plays the rest'):
+        bag_segments.bag_topics(damaged_bag)
+    with pytest.raises(BagError, match='killed_1.mcap'):
+        list(bag_segments.read_messages(damaged_bag))
+
+
+def test_when_asked_the_readable_rest_of_a_damaged_bag_is_read_in_time_order(damaged_bag):
+    topics = bag_segments.bag_topics(damaged_bag, skip_unreadable=True)
+    assert topics == {'/mode': ('std_msgs/msg/String', True),
+                      '/setpoint': (FLOAT, False)}
+    values = [TS.deserialize_cdr(raw, FLOAT).data for topic, _, _, raw in
+              bag_segments.read_messages(damaged_bag, ['/setpoint'], skip_unreadable=True)]
+    assert values == list(range(100)) + list(range(200, 350))
+    with pytest.raises(BagError, match='has no topic /nothing'):
+        bag_segments.read_messages(damaged_bag, ['/nothing'], skip_unreadable=True)
+
+
+def test_replay_names_the_file_it_refuses(damaged_bag):
+    done = subprocess.run([str(BIN / 'replay'), str(damaged_bag)], capture_output=True,
+                          text=True, timeout=120)
+    assert done.returncode == 2 and 'Traceback' not in done.stderr, done.stderr
+    assert done.stderr.startswith(f'replay: bag {damaged_bag}: segment file killed_1.mcap ('), \
+        done.stderr
