@@ -13,13 +13,13 @@ from flectofold_model.environment.sun import (angle_of_incidence_rad, day_epochs
                                               solar_position, SolarPosition, STUTTGART,
                                               sun_vector_enu)
 from flectofold_model.environment.weather import (into_reference_year, read_weather,
-                                                  REFERENCE_YEAR, site_distance_deg, Weather,
-                                                  weather_at, WeatherError)
+                                                  REFERENCE_YEAR, site_distance_deg, uncovered,
+                                                  Weather, weather_at, WeatherError)
 
 __all__ = [
     'STUTTGART', 'SimulatedClock', 'Site', 'SolarPosition', 'SunEphemeris',
     'angle_of_incidence_rad', 'day_epochs', 'enu_from_azimuth_elevation', 'epoch_from_iso',
     'solar_position', 'sun_vector_enu',
     'REFERENCE_YEAR', 'Weather', 'WeatherError', 'into_reference_year', 'read_weather',
-    'site_distance_deg', 'weather_at',
+    'site_distance_deg', 'uncovered', 'weather_at',
 ]

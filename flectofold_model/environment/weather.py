@@ -175,6 +175,35 @@ def into_reference_year(times_utc):
     return np.datetime64(f'{REFERENCE_YEAR}-01-01', 'ns') + (t - year_start)
 
 
+#: How far outside a weather file's first and last stamps a time may lie and still count as
+#: covered [s]: hourly readings are stamped at mid-hour or hour end, so a whole year's file
+#: starts up to an hour after its first midnight.
+COVERAGE_MARGIN_S = 3600.0
+
+
+def uncovered(weather, start_utc, end_utc):
+    """Say where ``[start_utc, end_utc]`` leaves the stamps of ``weather``; '' if it does not.
+
+    Both ends are mapped into the reference year (:func:`into_reference_year`), as
+    :func:`weather_at` maps them; a time more than :data:`COVERAGE_MARGIN_S` before the
+    first stamp or after the last is uncovered, where :func:`weather_at` would only hold the
+    nearest reading. A span crossing the new year is checked end by end.
+    """
+    first, last = weather.time_utc[0], weather.time_utc[-1]
+    margin = np.timedelta64(int(COVERAGE_MARGIN_S * 1e9), 'ns')
+    outside = []
+    for moment in (start_utc, end_utc):
+        t = into_reference_year(moment)[0]
+        if t < first - margin or t > last + margin:
+            outside.append(str(np.datetime_as_string(np.datetime64(moment, 's'))))
+    if not outside:
+        return ''
+    covered = (f'{np.datetime_as_string(first, "m")} .. {np.datetime_as_string(last, "m")} '
+               f'UTC (in the reference year {REFERENCE_YEAR})')
+    return (f'{" and ".join(outside)} UTC lie(s) outside the weather file {weather.source}, '
+            f'which covers {covered}')
+
+
 def weather_at(weather, times_utc):
     """Weather at arbitrary UTC times, each mapped by :func:`into_reference_year`.
 

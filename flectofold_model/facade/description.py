@@ -181,6 +181,10 @@ def load_facade(path=DEFAULT_FACADE):
     ``path`` is a YAML file, or the name of an embedded description (see
     :func:`facade_path`).
 
+    Actuation check: a facade whose panels cannot be actuated like their kind's preset module
+    (:func:`~flectofold_model.actuation.kinds.actuated_like`: its cushion does not fit them)
+    is refused with :class:`FacadeError`, as every process that runs it would fail.
+
     Strain check: a facade whose panels, built like the presets
     (:func:`~flectofold_model.actuation.kinds.actuated_like`), exceed their laminates'
     allowable strain at closure 1 gets one
@@ -203,8 +207,32 @@ def load_facade(path=DEFAULT_FACADE):
     except YAMLInputError as error:
         raise FacadeError(str(error)) from None
     facade = _build_document(document, Path(path).parent)
+    _check_actuation(facade, path)
     _warn_about_strain(facade)
     return facade
+
+
+def _check_actuation(facade, path):
+    """Refuse a facade whose panels cannot be actuated like their kind's preset module.
+
+    The geometry can be valid and the preset's cushion still not fit (longer or wider than a
+    small panel's mid-rib, a stroke too short for a large one): every process that runs the
+    facade builds that model, and one that found out only then (the coordinator, 29 s into a
+    bringup) died with a traceback naming no file. Raises :class:`FacadeError` naming the file,
+    the first panel and the reason.
+    """
+    from flectofold_model.actuation import actuated_like, actuation_model_of
+    try:
+        actuation_model_of(actuated_like(panel) for panel in facade.panels)
+        return
+    except ValueError:
+        pass
+    for panel_id, panel in zip(facade.panel_ids, facade.panels):
+        try:
+            actuation_model_of([actuated_like(panel)])
+        except ValueError as error:
+            raise FacadeError(f'{path}: panel {panel_id} cannot be actuated like the '
+                              f'{facade.panel_kind} preset module: {error}') from None
 
 
 def _warn_about_strain(facade):

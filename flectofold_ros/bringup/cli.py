@@ -16,11 +16,12 @@ import resource
 import sys
 import time
 
+import numpy as np
 from rclpy.clock import Clock, ClockType
 from rclpy.parameter import Parameter
 from rclpy.utilities import remove_ros_args
 
-from flectofold_model.environment import site_distance_deg
+from flectofold_model.environment import read_weather, site_distance_deg, uncovered
 from flectofold_model.facade import DEFAULT_FACADE, load_facade
 from flectofold_ros import contract, diagnostics
 from flectofold_ros.bringup.fault_script import load_fault_script
@@ -536,6 +537,19 @@ def _processes_cpu_s(processes):
     return total
 
 
+def check_weather(path, plan):
+    """Refuse (``ValueError``) a weather file that cannot be read or misses the planned day."""
+    try:
+        weather = read_weather(path)
+    except OSError as error:
+        raise ValueError(f'--weather {path}: cannot be read: {error.strerror or error}') from None
+    start, end = (np.datetime64(round(t * 1e9), 'ns')
+                  for t in (plan.start_epoch_s, plan.end_epoch_s))
+    if reason := uncovered(weather, start, end):
+        raise ValueError(f'--weather: the day {plan.start_iso} .. {plan.end_iso}: {reason}; '
+                         f'choose a --date it covers or a file that covers the date')
+
+
 def _describe(child):
     """Name a child and how it ended: ``panel_group 0/2 (exit 2)``."""
     return f'{child.name} ({child.deaths[-1].cause})'
@@ -549,6 +563,8 @@ def main(args=None):
         facade = load_facade(options.facade or DEFAULT_FACADE)
         plan = plan_day(facade, options.facade, options.date, options.start, options.end,
                         options.speedup, options.panel_processes, name=option_name)
+        if options.weather:  # read and checked before any child starts
+            check_weather(options.weather, plan)
         # before any child starts: they only read the cache, and must start in seconds
         prepare_structural_map(facade, 'facade')
         return Bringup(options, facade, plan)

@@ -129,6 +129,10 @@ class PanelNode(Node):
     def _resolve_id(self, panel_id, settings):
         given = panel_id or (self.get_parameter('panel_id').value if settings else '')
         from_namespace = self.get_namespace().rstrip('/').rsplit('/', 1)[-1]
+        if given and self.get_namespace() != '/' and from_namespace != given:
+            raise ValueError(
+                f'panel_id {given!r} and namespace {self.get_namespace()!r} disagree: the node '
+                f'would sit in one and serve the topics of the other; give one of them')
         panel_id = given or from_namespace
         if not contract.PANEL_ID.fullmatch(panel_id or ''):
             raise ValueError(

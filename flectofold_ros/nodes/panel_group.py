@@ -7,13 +7,18 @@ time, for every panel of the process; see ``msg_docs/panel_node.md``.
 """
 
 import argparse
+import re
 import sys
 
 from rclpy.parameter import Parameter
 from rclpy.utilities import remove_ros_args
 
 from flectofold_model.facade import DEFAULT_FACADE, load_facade
+from flectofold_ros import contract
 from flectofold_ros.nodes.panel import run_panels
+
+#: A ROS node name: a letter or underscore, then letters, digits or underscores.
+NODE_NAME = re.compile(r'[A-Za-z_][A-Za-z0-9_]*')
 
 
 def group_slice(panel_ids, group, groups):
@@ -46,7 +51,21 @@ def parse_arguments(argv):
     parser.add_argument('--facade', default='',
                         help='facade YAML (default: the embedded demonstrator); sets the '
                              "nodes' facade_file parameter")
-    return parser.parse_args(argv)
+    options = parser.parse_args(argv)
+    if options.panels is not None and not _ids(options.panels):
+        parser.error(f'--panels names no panel: {options.panels!r}')
+    for panel_id in _ids(options.panels or ''):
+        if not contract.PANEL_ID.fullmatch(panel_id):
+            parser.error(f'--panels: {panel_id!r} is no panel id (r<row>c<column>, two '
+                         f'digits each)')
+    if options.name and not NODE_NAME.fullmatch(options.name):
+        parser.error(f'--name must be a ROS node name (a letter or _, then letters, digits '
+                     f'or _), got {options.name!r}')
+    return options
+
+
+def _ids(text):
+    return [p.strip() for p in text.split(',') if p.strip()]
 
 
 def main(args=None):
@@ -55,16 +74,13 @@ def main(args=None):
     overrides = [Parameter('facade_file', value=options.facade)] if options.facade else []
 
     def panel_ids():
-        if options.panels:
-            ids = [p.strip() for p in options.panels.split(',') if p.strip()]
-            if not ids:
-                raise ValueError('--panels names no panel')
-            return ids
+        if options.panels is not None:
+            return _ids(options.panels)
         facade = load_facade(options.facade or DEFAULT_FACADE)
         return group_slice(facade.panel_ids, *options.group)
 
     name = options.name or (f'panel_group_{options.group[0]}' if options.group
-                            else f'panel_group_{options.panels.split(",")[0].strip()}')
+                            else f'panel_group_{_ids(options.panels)[0]}')
     return run_panels('panel_group', args, panel_ids, group_name=name,
                       parameter_overrides=overrides)
 

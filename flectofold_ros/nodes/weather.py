@@ -14,7 +14,7 @@ import numpy as np
 from rclpy.node import Node
 from std_msgs.msg import Float64
 
-from flectofold_model.environment import read_weather, weather_at
+from flectofold_model.environment import read_weather, uncovered, weather_at
 from flectofold_ros import contract
 from flectofold_ros.interfaces import publisher
 from flectofold_ros.parameters import declare_all, double, string
@@ -65,6 +65,8 @@ class WeatherNode(Node):
         self._gust_factor = self.get_parameter('gust_factor').value
         self._topic_publishers = {field: publisher(self, topic) for field, topic in TOPICS.items()}
         self.published = 0
+        self.uncovered = 0
+        """Messages published for a time the file does not cover (its nearest reading held)."""
         period_s = self.get_parameter('publish_period_s').value
         self.create_timer(period_s, self._on_timer)
         w = self.weather
@@ -81,6 +83,11 @@ class WeatherNode(Node):
 
     def publish_at(self, epoch_ns):
         """Publish the file's weather at ``epoch_ns`` (POSIX nanoseconds, UTC)."""
+        moment = np.datetime64(int(epoch_ns), 'ns')
+        if reason := uncovered(self.weather, moment, moment):
+            if not self.uncovered:  # once: the clock runs on, every message is as far out
+                self.get_logger().warning(f'{reason}: holding its nearest reading')
+            self.uncovered += 1
         values = readings_at(self.weather, epoch_ns, self._gust_factor)
         for field, value in values.items():
             self._topic_publishers[field].publish(Float64(data=value))

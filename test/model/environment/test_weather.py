@@ -7,7 +7,7 @@ import numpy as np
 import pvlib
 import pytest
 
-from flectofold_model.environment import read_weather, weather_at, WeatherError
+from flectofold_model.environment import read_weather, uncovered, weather_at, WeatherError
 
 TMY3 = os.path.join(os.path.dirname(pvlib.__file__), 'data', '723170TYA.CSV')
 
@@ -109,3 +109,25 @@ def test_file_errors(tmp_path):
     truncated.write_text('\n'.join(EPW_HEADER) + '\n1995,6,20\n')
     with pytest.raises(WeatherError):
         read_weather(truncated)
+
+
+def test_a_span_outside_the_file_is_named_and_one_inside_is_not(tmp_path):
+    path = tmp_path / 's.epw'
+    _write_epw(path)  # 20 and 21 June: stamps 2001-06-19T23:30 .. 2001-06-21T22:30 UTC
+    w = read_weather(path)
+
+    def t(text):
+        return np.datetime64(text, 'ns')
+
+    assert uncovered(w, t('2026-06-20T10:00'), t('2026-06-20T16:00')) == ''
+    # within COVERAGE_MARGIN_S of the first and the last stamp: covered
+    assert uncovered(w, t('2026-06-19T22:30'), t('2026-06-21T23:30')) == ''
+    # just beyond the margin: not
+    assert uncovered(w, t('2026-06-19T22:29'), t('2026-06-20T12:00')).startswith(
+        '2026-06-19T22:29:00 UTC lie(s) outside')
+    assert uncovered(w, t('2026-06-20T12:00'), t('2026-06-21T23:31')).startswith(
+        '2026-06-21T23:31:00 UTC lie(s) outside')
+    reason = uncovered(w, t('2026-01-15T11:00'), t('2026-01-15T12:00'))
+    assert reason == (f'2026-01-15T11:00:00 and 2026-01-15T12:00:00 UTC lie(s) outside the '
+                      f'weather file {w.source}, which covers 2001-06-19T23:30 .. '
+                      f'2001-06-21T22:30 UTC (in the reference year 2001)')

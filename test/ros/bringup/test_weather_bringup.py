@@ -92,6 +92,26 @@ def test_the_node_plays_the_file_s_hours_and_measures_the_site(weather_day):
     assert site_distance_deg(Site(25.2, 55.3, 0.0), weather) > 40.0
 
 
+def test_the_node_counts_what_it_publishes_for_times_its_file_does_not_cover(weather_day):
+    from rclpy.parameter import Parameter
+
+    from flectofold_ros.nodes.weather import WeatherNode
+    graph = Graph(domain_for(60))
+    try:
+        node = WeatherNode(context=graph.context, parameter_overrides=[
+            Parameter('weather_file', value=str(weather_day[0]))])
+        june = int(datetime.datetime(2026, 6, 21, 11, 30,
+                                     tzinfo=datetime.timezone.utc).timestamp()) * 10**9
+        node.publish_at(june)
+        assert node.uncovered == 0
+        node.publish_at(june + 30 * 86400 * 10**9)  # 21 July: the last reading, held
+        node.publish_at(june + 31 * 86400 * 10**9)
+        assert node.uncovered == 2 and node.published == 3
+        node.destroy_node()
+    finally:
+        graph.close()
+
+
 def test_a_bad_weather_file_is_refused_with_its_reason(tmp_path):
     missing = tmp_path / 'none.epw'
     result = subprocess.run([str(BIN / 'facade'), '--weather', str(missing), '--start',
@@ -99,6 +119,19 @@ def test_a_bad_weather_file_is_refused_with_its_reason(tmp_path):
                             timeout=120)
     assert result.returncode == 2, result.stdout + result.stderr
     assert f'weather file not found: {missing}' in result.stderr, result.stderr
+
+
+def test_a_weather_file_that_misses_the_day_is_refused_before_anything_starts(weather_day):
+    # Before, a 3-day June file was played for 15 January without a word (the first reading
+    # held all day), and the file was read only after every child had started.
+    epw, facade = weather_day
+    result = subprocess.run([str(BIN / 'facade'), '--facade', str(facade), '--weather',
+                             str(epw), '--date', '2026-01-15', '--start', '12:00', '--end',
+                             '12:10'], capture_output=True, text=True, timeout=120)
+    assert result.returncode == 2, result.stdout + result.stderr
+    assert 'lie(s) outside the weather file' in result.stderr and \
+        'which covers 2001-06-19T23:30 .. 2001-06-22T22:30 UTC' in result.stderr, result.stderr
+    assert 'ready' not in result.stdout and 'Traceback' not in result.stderr
 
 
 def test_a_day_on_a_weather_file_has_its_storm(weather_day, tmp_path):

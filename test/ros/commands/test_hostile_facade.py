@@ -55,3 +55,34 @@ def test_a_hostile_description_is_one_line_and_exit_2(name, document, tmp_path):
     reason = 'longer than' if document == 'huge' else 'YAML aliases (*name) are not accepted'
     assert reason in lines[0] and len(lines[0]) < 400
     assert 'Traceback' not in run.stdout + run.stderr
+
+
+#: Loads as geometry, but the preset's cushion (0.28 m flat) is wider than these panels'
+#: mid-rib (0.06 m at the end): before, the coordinator died with a [FATAL] traceback 29 s
+#: into a bringup, naming no file.
+UNACTUATED = """
+name: unactuated
+site: {latitude_deg: 48.78, longitude_deg: 9.18, elevation_m: 245, utc_offset_h: 2}
+facade: {azimuth_deg: 180}
+surface: {type: plane, width_m: 2.2, height_m: 2.2}
+grid: {rows: 2, columns: 2, gap_m: 0.1, midrib_along: v}
+panel: {fold_radius_m: 5.0, midrib_end_width_m: 0.01, hinge_width_m: 0.03}
+"""
+
+
+@pytest.mark.parametrize('name', ['facade', 'coordinator_node', 'panel_group'])
+def test_a_facade_whose_panels_cannot_be_actuated_is_refused_before_anything_runs(
+        name, tmp_path):
+    path = tmp_path / 'unactuated.yaml'
+    path.write_text(UNACTUATED)
+    arguments = commands(path, tmp_path)
+    arguments['panel_group'] = ['--group', '0/1', '--facade', str(path)]
+    environment = dict(os.environ, ROS_DOMAIN_ID=str(domain_for(47)))
+    run = subprocess.run([str(BIN / name), *arguments[name]], text=True, capture_output=True,
+                         timeout=60, env=environment)
+    lines = run.stderr.splitlines()
+    assert run.returncode == 2 and len(lines) == 1, run.stderr[-3000:]
+    assert lines[0] == (f'{name}: {path}: panel r00c00 cannot be actuated like the quad preset '
+                        f'module: cushion flat_width_m=0.28 m is wider than the mid-rib '
+                        f'(0.0601256 m)'), lines[0]
+    assert 'ready' not in run.stdout

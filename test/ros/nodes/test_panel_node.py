@@ -275,3 +275,38 @@ def test_the_cushion_driver_cannot_be_changed_at_run_time(group_name):
             node.destroy_node()
     finally:
         graph.close()
+
+
+@pytest.mark.parametrize('arguments, message', [
+    (['--panels', ''], "--panels names no panel: ''"),
+    (['--panels', ' , '], "--panels names no panel: ' , '"),
+    (['--panels', 'r00c00;rm'], "--panels: 'r00c00;rm' is no panel id (r<row>c<column>, two "
+                                'digits each)'),
+    (['--panels', 'r00c00', '--name', '../x'], '--name must be a ROS node name (a letter or _, '
+                                               "then letters, digits or _), got '../x'"),
+])
+def test_bad_panel_group_options_are_refused_with_a_reason(arguments, message):
+    # Before, each of these ended in a traceback (exit 1).
+    graph = Graph(domain_for(19))
+    try:
+        process = graph.start('panel_group', *arguments)
+        code, output = process.wait(timeout=60.0), process.stdout.read()
+    finally:
+        graph.close()
+    assert code == 2 and 'Traceback' not in output, output
+    assert output.strip().splitlines()[-1] == f'panel_group: error: {message}', output
+
+
+def test_a_panel_id_and_a_namespace_that_disagree_are_refused():
+    # Before, the node ran with the id: r00c00's setpoints went nowhere.
+    graph = Graph(domain_for(19))
+    try:
+        process = graph.start('panel_node', '--ros-args', '-r', '__ns:=/facade/r00c00', '-p',
+                              'panel_id:=r00c01')
+        code, output = process.wait(timeout=60.0), process.stdout.read()
+    finally:
+        graph.close()
+    assert code == 2 and 'Traceback' not in output, output
+    assert output.strip() == ("panel_node: panel_id 'r00c01' and namespace '/facade/r00c00' "
+                              'disagree: the node would sit in one and serve the topics of the '
+                              'other; give one of them'), output
