@@ -33,6 +33,9 @@ import sys
 
 #: Seconds the executor waits for an event before the loop looks at the stop signals again.
 SPIN_PERIOD_S = 0.1
+#: Exit code of a program that stopped because its disk has no room (a recorder): started
+#: again onto the same disk it would stop again, so the bringup does not restart it.
+NO_ROOM = 4
 #: Environment variable by which a supervising process (the ``facade`` bringup) asks a child
 #: to die with it: the supervisor's process id.
 PARENT_ENVIRONMENT = 'FLECTOFOLD_DIE_WITH_PARENT'

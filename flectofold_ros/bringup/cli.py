@@ -37,7 +37,7 @@ from flectofold_ros.nodes.panel_group import group_slice
 from flectofold_ros.nodes.sun_position import SunPositionNode
 from flectofold_ros.nodes.weather import WEATHER_SITE_TOLERANCE_DEG, WeatherNode
 from flectofold_ros.recording.bag_segments import check_bag
-from flectofold_ros.runner import Program, run_nodes, stop_requested
+from flectofold_ros.runner import NO_ROOM, Program, run_nodes, stop_requested
 
 #: Wall seconds the clock waits at the start for every panel and observer to be up.
 START_WAIT_S = 60.0
@@ -440,10 +440,25 @@ class Bringup(Program):
         return LOST if any(child.lost for child in self.supervisor.children) else 0
 
     def _recording_lines(self):
-        """Whether each bag the recorder (and its restarts) wrote is complete."""
+        """Whether each bag the recorder (and its restarts) wrote is complete; what is not in it.
+
+        A recorder that stopped because its disk has no room is not restarted onto it: the
+        rest of the day is not recorded, and the line says from when.
+        """
         bags = sorted(name for name in os.listdir(self.outputs)
                       if name == 'bag' or name.startswith('bag.restart'))
-        return ['  ' + check_bag(os.path.join(self.outputs, name)).summary() for name in bags]
+        lines = ['  ' + check_bag(os.path.join(self.outputs, name)).summary() for name in bags]
+        for child in self.supervisor.children:
+            death = child.deaths[-1] if child.lost and child.deaths else None
+            if child.name == 'bag_recorder' and death and death.returncode == NO_ROOM:
+                offset = self.facade.utc_offset_h
+                since = ('the start' if death.sim_time_s is None else
+                         local_time(death.sim_time_s, offset)[-5:])
+                until = local_time(self.plan.end_epoch_s, offset)[-5:]
+                lines.append(f'  NOT RECORDED: from {since} to {until} (local): the recorder '
+                             f'stopped, its disk ({self.outputs}) has no room; it was not '
+                             f'restarted onto it')
+        return lines
 
     def _stop_children(self):
         self.supervisor.stop(PANELS_STOP_S, panels=True)

@@ -12,8 +12,9 @@ Policy (``msg_docs/bringup.md``, "Supervision"):
   death up to ``max_delay_s``; a run of ``stable_s`` or longer counts as healthy, and the next
   death starts the back-off again;
 * after ``restart_limit`` consecutive restarts that each died within ``stable_s``, or at once
-  when it exits with code 2 (it refused its input: a restart would refuse it again), the child
-  is **lost**: not restarted, its panels lost for good; the bringup then exits non-zero.
+  when it exits with code 2 (it refused its input: a restart would refuse it again) or 4
+  (``NO_ROOM``: a recorder whose disk is full would stop again), the child is **lost**: not
+  restarted, its panels lost for good; the bringup then exits non-zero.
 """
 
 from dataclasses import dataclass, field
@@ -23,7 +24,7 @@ import subprocess
 import time
 from typing import Callable, Optional
 
-from flectofold_ros.runner import PARENT_ENVIRONMENT
+from flectofold_ros.runner import NO_ROOM, PARENT_ENVIRONMENT
 
 #: Exit code of an executable that refused its input (``flectofold_ros.runner``).
 BAD_INPUT = 2
@@ -164,10 +165,11 @@ class Supervisor:
         death = Death(child.name, child.process.pid, code, now_s, None, hung=child.hung)
         child.hung = ''
         child.deaths.append(death)
-        if code == BAD_INPUT or child.failures > self.policy.restart_limit:
+        if code in (BAD_INPUT, NO_ROOM) or child.failures > self.policy.restart_limit:
             child.lost = True
-            why = ('it refused its input' if code == BAD_INPUT else
-                   f'{self.policy.restart_limit} restarts did not keep it up')
+            why = {BAD_INPUT: 'it refused its input',
+                   NO_ROOM: 'its disk has no room'}.get(
+                code, f'{self.policy.restart_limit} restarts did not keep it up')
             return f'{child.name} (pid {death.pid}) died: {death.cause}; not restarted: {why}'
         death.restart_in_s = self.policy.delay_s(child.failures)
         child.restart_at_s = now_s + death.restart_in_s

@@ -26,8 +26,8 @@ from rclpy.node import Node
 from flectofold_ros import contract, diagnostics
 from flectofold_ros.interfaces import message_class, offered, publisher, subscription
 from flectofold_ros.parameters import declare_all, double, string, strings
-from flectofold_ros.recording.bag_segments import BagError, SegmentedBagWriter
-from flectofold_ros.runner import Program, run_nodes
+from flectofold_ros.recording.bag_segments import BagError, out_of_room, SegmentedBagWriter
+from flectofold_ros.runner import NO_ROOM, Program, run_nodes
 
 QUEUE_DEPTH = 100000
 #: Default rotation: a segment closes (and becomes directly readable after a SIGKILL) after
@@ -100,6 +100,8 @@ class BagRecorder(Node):
         self.lost_in_transport = 0
         self.skipped_topics = {}
         self.error = None
+        self.no_room = False
+        """The write error was a full disk (or quota): the exit code says so (NO_ROOM)."""
         self._recorded = {}
         self._early = []
         self._lost_events_supported = True
@@ -213,7 +215,7 @@ class BagRecorder(Node):
             with self._writer_lock:
                 method(*arguments)
         except BagError as error:
-            self.error = str(error)
+            self.error, self.no_room = str(error), out_of_room(error)
 
     def close(self):
         """Write what is queued (early messages too), close the bag; return its summary."""
@@ -228,7 +230,8 @@ class BagRecorder(Node):
             with self._writer_lock:
                 self.writer.close()
         except BagError as error:
-            self.error = self.error or str(error)
+            if self.error is None:
+                self.error, self.no_room = str(error), out_of_room(error)
         return self.summary()
 
     def figures(self):
@@ -282,6 +285,8 @@ class _Recording(Program):
     def close(self, interrupted):
         recorder = self.nodes[0]
         print(recorder.close(), flush=True)
+        if recorder.no_room:
+            return NO_ROOM  # not restarted onto the same full disk
         return 1 if recorder.error else 0
 
 

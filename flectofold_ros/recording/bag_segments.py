@@ -156,6 +156,15 @@ def _create_bag_dir(path: Path) -> None:
         raise BagError(f'cannot create bag {path}: not writable ({_reason(err)})') from err
 
 
+def out_of_room(error: BaseException) -> bool:
+    """Whether ``error`` (or what caused it) is a full disk or an exhausted quota."""
+    while error is not None:
+        if isinstance(error, OSError) and error.errno in (errno.ENOSPC, errno.EDQUOT):
+            return True
+        error = error.__cause__
+    return False
+
+
 def _reason(err: OSError) -> str:
     """Short reason of an OSError, e.g. 'No space left on device'."""
     return err.strerror or errno.errorcode.get(err.errno or 0, '') or str(err)

@@ -215,3 +215,39 @@ def test_a_bringup_killed_with_sigkill_leaves_no_child_running_and_a_complete_ba
     assert metadata['rosbag2_bagfile_information']['message_count'] > 0
     with Reader(run / 'bag') as reader:  # the recorder closed it on its SIGTERM
         assert reader.message_count == sum(1 for _ in reader.messages()) > 0
+
+
+@pytest.fixture
+def full_disk(tmp_path):
+    """Mount a 200 KiB tmpfs: a disk that fills in the first half of a 40-minute day."""
+    mount_point = tmp_path / 'small_disk'
+    mount_point.mkdir()
+    mounted = subprocess.run(['mount', '-t', 'tmpfs', '-o', 'size=200k', 'tmpfs',
+                              str(mount_point)], capture_output=True, text=True)
+    if mounted.returncode != 0:
+        pytest.skip(f'a small disk is mounted as tmpfs, which needs the right to mount here: '
+                    f'{mounted.stderr.strip()}')
+    yield mount_point
+    subprocess.run(['umount', '-l', str(mount_point)], check=False)
+
+
+def test_a_recorder_whose_disk_is_full_is_not_restarted_and_the_summary_says_what_is_missing(
+        small_facade_file, full_disk):
+    # Before, it was restarted onto the same full disk, and the rest of the day went
+    # unrecorded with exit 0.
+    graph = Graph(domain_for(61))
+    try:
+        bringup, output = start_day(graph, small_facade_file, '11:40', '--panel-processes', '1',
+                                    '--record', '--out', str(full_disk))
+        assert output.wait_for(graph, 'not restarted: its disk has no room', 120), output.text
+        assert output.wait_for(graph, 'day finished', 240), output.text
+        bringup.wait(timeout=120)
+        output.wait_for(graph, 'never printed', 2.0)
+    finally:
+        graph.close()
+    text = output.text
+    assert bringup.returncode == 3, text  # a child lost for good
+    assert 'bag_recorder (pid' in text and 'died: exit 4; not restarted' in text
+    assert 'restarted (pid' not in text
+    assert '  NOT RECORDED: from 11:' in text and ' to 11:40 (local): the recorder stopped, ' \
+        'its disk' in text and 'has no room; it was not restarted onto it' in text, text

@@ -12,6 +12,7 @@ import sys
 import pytest
 
 from flectofold_ros.bringup.supervision import Death, RestartPolicy, Supervisor
+from flectofold_ros.runner import NO_ROOM
 
 
 class FakeClock:
@@ -86,6 +87,18 @@ def test_a_child_that_refused_its_input_is_not_restarted():
     child = supervisor.add('panel_group 0/2', exiting(2), panels=['a'])
     (event,) = settle(supervisor, clock, 0.1)
     assert 'not restarted: it refused its input' in event and child.lost
+
+
+def test_a_recorder_whose_disk_has_no_room_is_not_restarted_onto_it():
+    # Before, it was restarted onto the same full disk, and the rest of the day (2.3 h) went
+    # unrecorded with only a restart in the summary.
+    clock = FakeClock()
+    supervisor = Supervisor(clock=clock)
+    child = supervisor.add('bag_recorder', exiting(NO_ROOM))
+    (event,) = settle(supervisor, clock, 0.1)
+    assert event.endswith('died: exit 4; not restarted: its disk has no room') and child.lost
+    assert child.starts == 1 and supervisor.summary_lines()[0].endswith(
+        '(exit 4), not restarted: lost')
 
 
 def test_children_asked_to_stop_are_not_deaths():

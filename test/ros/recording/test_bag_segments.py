@@ -289,8 +289,11 @@ def test_os_error_while_writing_becomes_bag_error(tmp_path, monkeypatch):
         raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
 
     monkeypatch.setattr(Writer, 'write', disk_full)
-    with pytest.raises(BagError, match=r'cannot write to bag .*full: No space left on device'):
+    with pytest.raises(BagError, match=r'cannot write to bag .*full: No space left on device') \
+            as full:
         writer.write('/setpoint', 100, cdr_float(0))
+    assert bag_segments.out_of_room(full.value)  # the recorder's exit code NO_ROOM
+    assert not bag_segments.out_of_room(BagError('two types on one topic'))
     with pytest.raises(BagError, match=r'stopped recording after an error: .*No space left'):
         writer.write('/setpoint', 101, cdr_float(0))
     writer.close()
