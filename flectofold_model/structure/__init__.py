@@ -6,7 +6,9 @@ cushion, or with held coordinates), :mod:`.panel` (a quad panel meshed with its 
 its moulded pre-fold, supports and cushion, and its path from open toward closed),
 :mod:`.hexagon` (the same for a hexagonal panel), :mod:`.comparison` (the path beside the
 reflection model at the same closures), :mod:`.cushion_tables` (the plant's cushion map from
-the structure, cached per design). Verification and comparison figures:
+the structure, cached per design), :mod:`.facade_map` (a facade's map as its description
+chooses: energy statics or the structure of its median panel). Verification and comparison
+figures:
 ``msg_docs/structure.md``.
 """
 

@@ -6,72 +6,22 @@ summary lists the death and the restart. With no restarts allowed the panels are
 good and the bringup exits 3.
 """
 
-import os
-import queue
-import signal
 import subprocess
-import threading
 import time
 
+from bringup_day import panel_processes_of, start_day, supervised_facade_file
 import pytest
 from ros_graph import domain_for, Graph
-from rosbags.rosbag2 import Reader
-import yaml
 
 from flectofold_ros import contract
 from flectofold_ros.interfaces import subscription
 
 pytestmark = pytest.mark.graph
 
-CONTROL = 'period_s: 60.0, shading_target: 0.9, min_dwell_s: 300.0, default_closure: 1.0'
-
 
 @pytest.fixture()
 def small_facade_file(small_facade_text, tmp_path):
-    path = tmp_path / 'supervised_small.yaml'
-    path.write_text(small_facade_text(CONTROL))
-    return path
-
-
-def panel_processes_of(pid):
-    listing = subprocess.run(['pgrep', '-P', str(pid), '-f', 'panel_group'],
-                             capture_output=True, text=True)
-    return [int(child) for child in listing.stdout.split()]
-
-
-class Lines:
-    """The output of a process, read on a thread; waited on while the probe spins."""
-
-    def __init__(self, process):
-        self.lines, self._queue = [], queue.Queue()
-        threading.Thread(target=self._read, args=(process,), daemon=True).start()
-
-    def _read(self, process):
-        for line in process.stdout:
-            self._queue.put(line)
-
-    def wait_for(self, graph, text, timeout_s):
-        deadline = time.monotonic() + timeout_s
-        while time.monotonic() < deadline:
-            graph.executor.spin_once(timeout_sec=0.05)
-            while not self._queue.empty():
-                self.lines.append(self._queue.get())
-                if text in self.lines[-1]:
-                    return self.lines[-1]
-        return None
-
-    @property
-    def text(self):
-        return ''.join(self.lines)
-
-
-def start_day(graph, facade_file, end, *options):
-    """Start ``facade`` from 11:00 to ``end`` at 120x; return it and its output once all report."""
-    bringup = graph.start('facade', '--facade', str(facade_file), '--start', '11:00', '--end',
-                          end, '--speedup', '120', '--progress-period', '1', *options)
-    output = Lines(bringup)
-    assert output.wait_for(graph, '| panels reporting 4/4', 180), output.text
-    return bringup, output
+    return supervised_facade_file(small_facade_text, tmp_path)
 
 
 def test_a_killed_panel_process_is_restarted_and_its_panels_track_again(small_facade_file):
@@ -176,78 +126,3 @@ def test_a_hung_panel_process_is_killed_and_restarted(small_facade_file):
     assert bringup.returncode == 0, text
     assert 'panels reporting: 4/4' in text and '1 deaths, 1 restarts' in text, text
     assert 'panel_group 0/2 died at 11:' in text and 'hung (silent for 15 s), killed' in text
-
-
-def alive(pid):
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    return not open(f'/proc/{pid}/stat').read().split(')')[-1].split()[0] == 'Z'
-
-
-def test_a_bringup_killed_with_sigkill_leaves_no_child_running_and_a_complete_bag(
-        small_facade_file, tmp_path):
-    # Before, its panel processes, recorder and bridge ran on as orphans (still there after
-    # 60 s), holding the bag's lock, and would mix into the next run on the domain.
-    graph, children = Graph(domain_for(59)), []
-    try:
-        bringup, output = start_day(graph, small_facade_file, '11:40', '--panel-processes', '2',
-                                    '--record', '--rerun', 'none', '--out', str(tmp_path / 'out'))
-        children = [int(pid) for pid in subprocess.run(
-            ['pgrep', '-P', str(bringup.pid)], capture_output=True, text=True).stdout.split()]
-        assert len(children) == 4, children  # two panel processes, the recorder, the bridge
-        graph.spin_for(2.0)  # the recorder writes a little of the day
-        subprocess.run(['kill', '-KILL', str(bringup.pid)], check=True)
-        bringup.wait(timeout=30)
-        deadline = time.monotonic() + 60.0
-        while any(alive(pid) for pid in children) and time.monotonic() < deadline:
-            time.sleep(0.2)
-        survivors = [pid for pid in children if alive(pid)]
-    finally:
-        for pid in children:
-            if alive(pid):  # orphans of a failure would mix into the next test's domain
-                os.kill(pid, signal.SIGKILL)
-        graph.close()
-    assert survivors == [], survivors
-    run = next((tmp_path / 'out').glob('2026-*'))
-    metadata = yaml.safe_load((run / 'bag' / 'metadata.yaml').read_text())
-    assert metadata['rosbag2_bagfile_information']['message_count'] > 0
-    with Reader(run / 'bag') as reader:  # the recorder closed it on its SIGTERM
-        assert reader.message_count == sum(1 for _ in reader.messages()) > 0
-
-
-@pytest.fixture
-def full_disk(tmp_path):
-    """Mount a 200 KiB tmpfs: a disk that fills in the first half of a 40-minute day."""
-    mount_point = tmp_path / 'small_disk'
-    mount_point.mkdir()
-    mounted = subprocess.run(['mount', '-t', 'tmpfs', '-o', 'size=200k', 'tmpfs',
-                              str(mount_point)], capture_output=True, text=True)
-    if mounted.returncode != 0:
-        pytest.skip(f'a small disk is mounted as tmpfs, which needs the right to mount here: '
-                    f'{mounted.stderr.strip()}')
-    yield mount_point
-    subprocess.run(['umount', '-l', str(mount_point)], check=False)
-
-
-def test_a_recorder_whose_disk_is_full_is_not_restarted_and_the_summary_says_what_is_missing(
-        small_facade_file, full_disk):
-    # Before, it was restarted onto the same full disk, and the rest of the day went
-    # unrecorded with exit 0.
-    graph = Graph(domain_for(61))
-    try:
-        bringup, output = start_day(graph, small_facade_file, '11:40', '--panel-processes', '1',
-                                    '--record', '--out', str(full_disk))
-        assert output.wait_for(graph, 'not restarted: its disk has no room', 120), output.text
-        assert output.wait_for(graph, 'day finished', 240), output.text
-        bringup.wait(timeout=120)
-        output.wait_for(graph, 'never printed', 2.0)
-    finally:
-        graph.close()
-    text = output.text
-    assert bringup.returncode == 3, text  # a child lost for good
-    assert 'bag_recorder (pid' in text and 'died: exit 4; not restarted' in text
-    assert 'restarted (pid' not in text
-    assert '  NOT RECORDED: from 11:' in text and ' to 11:40 (local): the recorder stopped, ' \
-        'its disk' in text and 'has no room; it was not restarted onto it' in text, text

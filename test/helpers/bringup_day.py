@@ -1,0 +1,56 @@
+"""A ``facade`` bringup day for the supervision tests: a small facade, its output on a thread."""
+
+import queue
+import subprocess
+import threading
+import time
+
+CONTROL = 'period_s: 60.0, shading_target: 0.9, min_dwell_s: 300.0, default_closure: 1.0'
+
+
+def supervised_facade_file(small_facade_text, tmp_path):
+    """Write the small facade the supervision days run; return its path."""
+    path = tmp_path / 'supervised_small.yaml'
+    path.write_text(small_facade_text(CONTROL))
+    return path
+
+
+def panel_processes_of(pid):
+    listing = subprocess.run(['pgrep', '-P', str(pid), '-f', 'panel_group'],
+                             capture_output=True, text=True)
+    return [int(child) for child in listing.stdout.split()]
+
+
+class Lines:
+    """The output of a process, read on a thread; waited on while the probe spins."""
+
+    def __init__(self, process):
+        self.lines, self._queue = [], queue.Queue()
+        threading.Thread(target=self._read, args=(process,), daemon=True).start()
+
+    def _read(self, process):
+        for line in process.stdout:
+            self._queue.put(line)
+
+    def wait_for(self, graph, text, timeout_s):
+        deadline = time.monotonic() + timeout_s
+        while time.monotonic() < deadline:
+            graph.executor.spin_once(timeout_sec=0.05)
+            while not self._queue.empty():
+                self.lines.append(self._queue.get())
+                if text in self.lines[-1]:
+                    return self.lines[-1]
+        return None
+
+    @property
+    def text(self):
+        return ''.join(self.lines)
+
+
+def start_day(graph, facade_file, end, *options):
+    """Start ``facade`` from 11:00 to ``end`` at 120x; return it and its output once all report."""
+    bringup = graph.start('facade', '--facade', str(facade_file), '--start', '11:00', '--end',
+                          end, '--speedup', '120', '--progress-period', '1', *options)
+    output = Lines(bringup)
+    assert output.wait_for(graph, '| panels reporting 4/4', 180), output.text
+    return bringup, output
