@@ -11,6 +11,7 @@ import subprocess
 import sys
 
 import pytest
+from ros_graph import bench_domains
 
 pytestmark = pytest.mark.graph
 BENCH = Path(__file__).resolve().parents[1] / 'bench' / 'bench_graph.py'
@@ -18,8 +19,8 @@ BENCH = Path(__file__).resolve().parents[1] / 'bench' / 'bench_graph.py'
 
 def test_the_quick_graph_benchmark_runs_and_measures(tmp_path):
     result = subprocess.run([sys.executable, str(BENCH), '--quick', '--json',
-                             str(tmp_path / 'graph.json')], capture_output=True, text=True,
-                            timeout=300)
+                             str(tmp_path / 'graph.json'), '--domain', str(bench_domains())],
+                            capture_output=True, text=True, timeout=300)
     assert result.returncode == 0, result.stdout[-3000:] + result.stderr[-3000:]
     report = json.loads((tmp_path / 'graph.json').read_text())
     rows = {row['phase']: row for row in report['rows']}

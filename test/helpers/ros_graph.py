@@ -175,6 +175,18 @@ def domain_for(offset):
     return 10 + 20 * worker + (os.getpid() + offset) % 20
 
 
+def bench_domains():
+    """Pick the first of two ROS domains for a benchmark a test runs (it takes the next too).
+
+    90-97, two per pytest-xdist worker: outside the 10-89 of :func:`domain_for`, so that a
+    benchmark's facade never shares a domain with another test's (the graph benchmark's
+    default, 60 and 61, lay inside the third worker's range: its 36 panels and clock mixed
+    into the tests there).
+    """
+    worker = int(os.environ.get('PYTEST_XDIST_WORKER', 'gw0')[2:]) % 4
+    return 90 + 2 * worker
+
+
 def on_facade_setpoints(node, callback):
     """Subscribe ``node`` to ``/facade/setpoints``; ``callback(panel_id, closure)`` per entry."""
     from flectofold_ros import contract

@@ -15,6 +15,7 @@ from rclpy.exceptions import ParameterException
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.parameter import Parameter
+from ros_graph import domain_for
 from rosgraph_msgs.msg import Clock
 
 from flectofold_model.environment.sun import epoch_from_iso, Site, sun_vector_enu
@@ -26,7 +27,7 @@ pytestmark = pytest.mark.graph
 #: rcl's log topic (not the package's): latched, so that a late probe hears the start-up.
 ROSOUT = contract.Topic('/rosout', 'rcl_interfaces/msg/Log', contract.Qos(depth=100, latched=True))
 # A domain of its own, so that parallel test runs on this host do not hear each other.
-DOMAIN_ID = os.getpid() % 40 + 60
+DOMAIN_ID = domain_for(41)  # this worker's own range (was 60-99: other workers' tests)
 NS = 10**9
 NOON = '2026-06-21T12:00:00+02:00'
 SHORT_DAY = {'mode': 'simulated', 'start_time': NOON,
