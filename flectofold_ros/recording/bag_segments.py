@@ -623,10 +623,28 @@ def _one_line(error: Exception, limit: int = 120) -> str:
     return text if len(text) <= limit else text[:limit - 3] + '...'
 
 
-def _readable_files(bag: Path) -> list[Path]:
-    """Return the segment files of a bag directory that can be read, in the metadata's order."""
+def _readable_rest(path: PathLike, skip_unreadable: bool) -> Optional[list[Path]]:
+    """Return the readable segment files to play instead of the whole bag, or None.
+
+    Only with ``skip_unreadable``, for a bag directory some of whose segment files cannot be
+    read: the others, in the metadata's order. Each segment file is opened once.
+    """
+    bag = Path(path)
+    if not (skip_unreadable and bag.is_dir()):
+        return None
     skipped = {name for name, _ in unreadable_segments(bag)}
-    return [file for file in _segment_files(bag) if file.name not in skipped]
+    return [file for file in _segment_files(bag) if file.name not in skipped] if skipped \
+        else None
+
+
+def _topics_of(files: list[Path]) -> dict[str, tuple[str, bool]]:
+    """Topics of segment files: name -> (msgtype, latched), the first file's that has it."""
+    topics: dict[str, tuple[str, bool]] = {}
+    for file in files:
+        with Reader(file) as reader:
+            for conn in reader.connections:
+                topics.setdefault(conn.topic, (conn.msgtype, _is_latched(conn)))
+    return topics
 
 
 def _is_latched(conn: Connection) -> bool:
@@ -649,13 +667,9 @@ def bag_topics(path: PathLike, skip_unreadable: bool = False) -> dict[str, tuple
 
     ``skip_unreadable``: of the segment files that can be read only (a bag directory).
     """
-    if skip_unreadable and Path(path).is_dir() and unreadable_segments(Path(path)):
-        topics = {}
-        for file in _readable_files(Path(path)):
-            with Reader(file) as reader:
-                for conn in reader.connections:
-                    topics.setdefault(conn.topic, (conn.msgtype, _is_latched(conn)))
-        return topics
+    files = _readable_rest(path, skip_unreadable)
+    if files is not None:
+        return _topics_of(files)
     reader = _open_reader(path)
     try:
         return {conn.topic: (conn.msgtype, _is_latched(conn)) for conn in reader.connections}
@@ -711,13 +725,12 @@ def read_messages(path: PathLike, topics: Optional[Iterable[str]] = None,
     ``skip_unreadable``: a bag directory's segment files that cannot be read are left out (see
     :func:`unreadable_segments`), the others played.
     """
-    bag = Path(path)
-    if skip_unreadable and bag.is_dir() and unreadable_segments(bag):
-        available = bag_topics(bag, skip_unreadable=True)
+    files = _readable_rest(path, skip_unreadable)
+    if files is not None:
+        available = _topics_of(files)
         names = set(available) if topics is None else {topics} if isinstance(
             topics, str) else set(topics)
         require_topics(path, available, names)
-        files = _readable_files(bag)
         return heapq.merge(*(_segment_messages(file, names) for file in files),
                            key=lambda message: message[2])
     reader = _open_reader(path)

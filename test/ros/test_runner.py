@@ -4,6 +4,7 @@ import os
 import signal
 import time
 
+from process_state import running
 import pytest
 
 from flectofold_ros.runner import Interrupted, run_command, StopSignals
@@ -256,12 +257,3 @@ def test_a_child_of_a_supervisor_is_stopped_when_the_supervisor_dies(tmp_path):
     if not stopped:
         os.kill(child_pid, signal.SIGKILL)
     assert stopped
-
-
-def running(pid):
-    """Whether process ``pid`` runs (neither gone nor a zombie waiting to be reaped)."""
-    try:
-        with open(f'/proc/{pid}/stat') as stat:
-            return stat.read().split(')')[-1].split()[0] != 'Z'
-    except FileNotFoundError:
-        return False

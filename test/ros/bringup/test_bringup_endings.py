@@ -11,6 +11,7 @@ import subprocess
 import time
 
 from bringup_day import start_day, supervised_facade_file
+from process_state import running
 import pytest
 from ros_graph import domain_for, Graph
 from rosbags.rosbag2 import Reader
@@ -22,14 +23,6 @@ pytestmark = pytest.mark.graph
 @pytest.fixture()
 def small_facade_file(small_facade_text, tmp_path):
     return supervised_facade_file(small_facade_text, tmp_path)
-
-
-def alive(pid):
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    return not open(f'/proc/{pid}/stat').read().split(')')[-1].split()[0] == 'Z'
 
 
 def test_a_bringup_killed_with_sigkill_leaves_no_child_running_and_a_complete_bag(
@@ -47,12 +40,12 @@ def test_a_bringup_killed_with_sigkill_leaves_no_child_running_and_a_complete_ba
         subprocess.run(['kill', '-KILL', str(bringup.pid)], check=True)
         bringup.wait(timeout=30)
         deadline = time.monotonic() + 60.0
-        while any(alive(pid) for pid in children) and time.monotonic() < deadline:
+        while any(running(pid) for pid in children) and time.monotonic() < deadline:
             time.sleep(0.2)
-        survivors = [pid for pid in children if alive(pid)]
+        survivors = [pid for pid in children if running(pid)]
     finally:
         for pid in children:
-            if alive(pid):  # orphans of a failure would mix into the next test's domain
+            if running(pid):  # orphans of a failure would mix into the next test's domain
                 os.kill(pid, signal.SIGKILL)
         graph.close()
     assert survivors == [], survivors
