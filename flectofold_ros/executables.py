@@ -75,15 +75,28 @@ def run(name, args=None, ending=False):
             # at exit from flushing into the closed pipe either (the Python docs' recipe)
             os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
             return 1
-        except ImportError:
+        except (ImportError, RuntimeError) as error:
             # A stop signal that lands in an extension module's initialisation comes out as
-            # "ImportError: initialization failed": the start was abandoned all the same.
-            if stop.requested:
+            # "ImportError: initialization failed", one in a class body's __set_name__ (a
+            # dataclass field while scipy imports) as a RuntimeError raised from it: the
+            # start was abandoned all the same.
+            if stop.requested and (isinstance(error, ImportError) or _from_interrupt(error)):
                 return stopped_code
             raise
         finally:
             if ending:
                 stop.leaving()
+
+
+def _from_interrupt(error):
+    """Whether ``error`` was raised from an :class:`Interrupted` (its cause or context)."""
+    seen = set()
+    while error is not None and id(error) not in seen:
+        if isinstance(error, Interrupted):
+            return True
+        seen.add(id(error))
+        error = error.__cause__ or error.__context__
+    return False
 
 
 def _entry_point(name):

@@ -104,7 +104,8 @@ def test_executables_are_console_scripts_in_the_venv():
 
 
 #: The parts that must run without rclpy (the model; the ROS package's pure parts).
-RCLPY_FREE = ['flectofold_model', 'flectofold_ros.contract', 'flectofold_ros.bringup.plan',
+RCLPY_FREE = ['flectofold_model', 'flectofold_ros.contract', 'flectofold_ros.presence',
+              'flectofold_ros.bringup.plan',
               'flectofold_ros.recording', 'flectofold_ros.rerun', 'flectofold_ros.commands',
               'flectofold_ros.runner', 'flectofold_ros.executables', 'flectofold_ros.hardware']
 

@@ -23,13 +23,14 @@ from rclpy.utilities import remove_ros_args
 
 from flectofold_model.environment import read_weather, site_distance_deg, uncovered
 from flectofold_model.facade import DEFAULT_FACADE, load_facade
-from flectofold_ros import contract, diagnostics
+from flectofold_ros import contract, diagnostics, presence
 from flectofold_ros.bringup.fault_script import load_fault_script
 from flectofold_ros.bringup.fault_script_node import FaultScriptNode
 from flectofold_ros.bringup.monitor import Monitor
 from flectofold_ros.bringup.plan import local_time, MAX_LAG_S, plan_day
 from flectofold_ros.bringup.supervision import RestartPolicy, Supervisor
 from flectofold_ros.commands.structure_cache import prepare_structural_map
+from flectofold_ros.domain_watch import Presence
 from flectofold_ros.interfaces import publisher
 from flectofold_ros.nodes.coordinator import CoordinatorNode
 from flectofold_ros.nodes.panel import MAX_CALL_S, start_panels
@@ -56,9 +57,10 @@ RESTART_WAIT_S = 2.0 * START_WAIT_S
 #: Wall seconds without /diagnostics (sent every second) after which a panel process that
 #: reported before counts as hung and is killed, to be restarted.
 HUNG_S = 15.0
-#: Exit codes of a day that was interrupted, of one whose processes failed to start, and of
-#: one that lost a supervised process for good.
-INTERRUPTED, FAILED, LOST = 130, 1, 3
+#: Exit codes of a day that was interrupted, of one whose processes failed to start, of one
+#: that lost a supervised process for good, and of one stopped because another facade or a
+#: second clock came on its ROS domain.
+INTERRUPTED, FAILED, LOST, CONFLICT = 130, 1, 3, 5
 
 
 #: What the end-of-run summary's figures mean (``--help`` and the summary's last lines).
@@ -198,6 +200,8 @@ class Bringup(Program):
         self.hold_causes = set()
         """Why the clock was held: 'lag', 'restart'."""
         self.failed = False
+        self.conflicts, self.conflict_at_s = [], None
+        """Another facade or clock heard on the domain while running; where the day stopped."""
         try:
             self._start(options)
         except BaseException:
@@ -206,6 +210,9 @@ class Bringup(Program):
 
     def _start(self, options):
         plan = self.plan
+        self.monitor = Monitor(self.facade)
+        self._diagnostics = publisher(self.monitor, contract.DIAGNOSTICS)
+        self._refuse_beside_another_facade()
         env = dict(os.environ, PYTHONUNBUFFERED='1')
         supervisor, outputs = self.supervisor, self.outputs
         if options.record:
@@ -225,6 +232,7 @@ class Bringup(Program):
                            settings_node=f'panel_group_{k}')
         self.coordinator = CoordinatorNode(
             parameter_overrides=parameters(plan.coordinator_parameters()))
+        self.coordinator.presence = self.presence
         self.nodes.append(self.coordinator)
         if not plan.panel_processes:
             self.panels = start_panels(self.facade.panel_ids, 'panel_group_0',
@@ -232,10 +240,9 @@ class Bringup(Program):
             self.nodes += self.panels.nodes
         self.sun = SunPositionNode(parameter_overrides=parameters(plan.sun_parameters()))
         self.sun.hold()
+        self.monitor.own_clock = self.sun.sent_clock
         if options.weather:
             self.nodes.append(self._weather_node(options.weather))
-        self.monitor = Monitor(self.facade)
-        self._diagnostics = publisher(self.monitor, contract.DIAGNOSTICS)
         self.nodes += [self.sun, self.monitor]
         if options.faults:
             script = load_fault_script(options.faults, self.facade.panel_ids,
@@ -250,6 +257,50 @@ class Bringup(Program):
         print(f'facade: {self.facade.name}, {len(self.facade)} panels ({where}), '
               f'{plan.start_iso} .. {plan.end_iso} at {plan.speedup:g}x; Ctrl-C stops',
               flush=True)
+
+    def _refuse_beside_another_facade(self):
+        """Listen for another live facade on the domain; refuse to start beside it (exit 2).
+
+        This process holds the clock and the coordinator (and the panels when it runs them);
+        its children announce their own panels.
+        """
+        namespace = contract.FACADE_NODE_NAMESPACE
+        own = presence.this_process(
+            presence.BRINGUP, self.facade.name,
+            [self.monitor.get_fully_qualified_name(), f'{namespace}/{contract.COORDINATOR_NODE}',
+             f'{namespace}/{contract.SUN_POSITION_NODE}'],
+            () if self.plan.panel_processes else self.facade.panel_ids, clock=True)
+        self.presence = Presence(self.monitor, own, on_conflict=self._conflict)
+        lines = self.presence.probe()
+        if lines:
+            raise ValueError(f'another facade on this ROS domain (ROS_DOMAIN_ID '
+                             f'{self.monitor.context.get_domain_id()}): {"; ".join(lines)}')
+        self.presence.announce()
+
+    def _conflict(self, line):
+        """Stop the day: another facade (or a second clock) is on the domain."""
+        if line in self.conflicts:
+            return
+        self.conflicts.append(line)
+        print(f'facade: ERROR: {line}; stopping the day', flush=True)
+        self._diagnostics.publish(diagnostics.diagnostic_array(self.monitor, [
+            diagnostics.status(self.monitor, diagnostics.ERROR, 'domain', self.facade.name,
+                               f'another facade on this ROS domain: {line}',
+                               {'conflicts': len(self.conflicts)})]))
+        self.conflict_at_s = self.monitor.clock_s
+        self._enter('done')
+
+    def _check_clock_source(self):
+        """Stop the day on a /clock this bringup did not send: a second clock."""
+        if self.monitor.foreign_clock:
+            names = sorted(set(self._clock_publishers()))
+            self._conflict(f'a second {contract.CLOCK.name} ({self.monitor.foreign_clock} '
+                           f'message(s) this bringup did not send); its publishers: '
+                           f'{"; ".join(self.presence.who(name) for name in names)}')
+
+    def _clock_publishers(self):
+        for info in self.monitor.get_publishers_info_by_topic(contract.CLOCK.name):
+            yield f'{info.node_namespace.rstrip("/")}/{info.node_name}'
 
     def _weather_node(self, path):
         node = WeatherNode(parameter_overrides=parameters(self.plan.weather_parameters(path)))
@@ -280,6 +331,8 @@ class Bringup(Program):
         if stop_requested():  # children stopping on the same Ctrl-C are not deaths
             return
         waited = time.monotonic() - self._phase_since
+        if self.phase != 'done':
+            self._check_clock_source()
         if self.phase not in ('starting', 'done'):
             self._supervise()
         if self.phase == 'starting':
@@ -435,6 +488,8 @@ class Bringup(Program):
             print('\n'.join(output_lines(self.outputs) + self._recording_lines()), flush=True)
         if self.failed:
             return FAILED
+        if self.conflicts:
+            return CONFLICT
         if interrupted:
             return INTERRUPTED
         return LOST if any(child.lost for child in self.supervisor.children) else 0
@@ -493,7 +548,9 @@ class Bringup(Program):
         usage = resource.getrusage(resource.RUSAGE_SELF)
         children = resource.getrusage(resource.RUSAGE_CHILDREN)
         cpu_s = usage.ru_utime + usage.ru_stime + children.ru_utime + children.ru_stime
-        lines = [f'{facade.name}: {"interrupted" if interrupted else "day finished"} at '
+        ending = ('stopped: another facade on the domain' if self.conflicts else
+                  'interrupted' if interrupted else 'day finished')
+        lines = [f'{facade.name}: {ending} at '
                  f'{local_time(now_s, facade.utc_offset_h)} (local)',
                  f'  simulated {sim_s / 3600:.2f} h in {wall_s:.1f} s wall: '
                  f'{sim_s / max(wall_s, 1e-9):.0f}x real time (asked {plan.speedup:g}x)',
@@ -502,6 +559,11 @@ class Bringup(Program):
                  f'{MAX_LAG_S:g} s behind' +
                  (' or restarting panel processes' if 'restart' in self.hold_causes else '')]
         lines += self._supervision_lines()
+        if self.conflicts:
+            when = ('the start' if self.conflict_at_s is None else
+                    local_time(self.conflict_at_s, facade.utc_offset_h)[-5:] + ' (local)')
+            lines += [f'  CONFLICT: the day was stopped at {when}: another facade on this ROS '
+                      f'domain: {line}' for line in self.conflicts]
         figures = self.coordinator.figures()
         if figures['decisions']:
             lines.append(f'  coordinator: {figures["decisions"]} decisions, moves per panel '

@@ -54,6 +54,10 @@ class Monitor(Node):
         """Panel process (settings node name) -> monotonic time of its last /diagnostics."""
         self.foreign = 0
         """``panel_states`` messages or points that are not of this facade, ignored."""
+        self.own_clock = None
+        """``own_clock(ns)``: whether a ``/clock`` value is the bringup's (None: take any)."""
+        self.foreign_clock = 0
+        """``/clock`` messages that were not the bringup's, ignored."""
         subscription(self, contract.CLOCK, self._on_clock)
         subscription(self, contract.DIAGNOSTICS, self._on_diagnostics, contract.OBSERVER)
         subscription(self, contract.PANEL_STATES, self._on_panel_states, contract.OBSERVER)
@@ -61,6 +65,10 @@ class Monitor(Node):
     # -- inputs -----------------------------------------------------------------------------
 
     def _on_clock(self, message):
+        if self.own_clock is not None and \
+                not self.own_clock(message.clock.sec * 1_000_000_000 + message.clock.nanosec):
+            self.foreign_clock += 1  # a second clock on the domain: not this day's time
+            return
         self.clock_s = message.clock.sec + message.clock.nanosec * 1e-9
 
     def _on_panel_states(self, message):

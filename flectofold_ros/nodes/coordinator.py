@@ -24,7 +24,8 @@ from flectofold_model.scheduling.facade_schedule import representative_panel
 from flectofold_model.scheduling.predictive import DEFAULT_CONTROLLER
 from flectofold_model.scheduling.scheduler import OverrideRefused
 from flectofold_model.shading import ShadingTable
-from flectofold_ros import contract, diagnostics, facade_setpoints, panel_states
+from flectofold_ros import contract, diagnostics, facade_setpoints, panel_states, presence
+from flectofold_ros.domain_watch import Presence, SourceGuard
 from flectofold_ros.interfaces import publisher, subscription
 from flectofold_ros.parameters import declare_all, double, string
 from flectofold_ros.runner import Program, run_nodes
@@ -78,6 +79,13 @@ class CoordinatorNode(Node):
         self._dni = None
         self._faulted = dict.fromkeys(self.facade.panel_ids, False)
         self._setpoints = publisher(self, contract.FACADE_SETPOINTS)
+        self.presence = None
+        """Its process's :class:`~flectofold_ros.domain_watch.Presence` when it runs alone."""
+        watched = [contract.SUN.name, contract.WIND_SPEED.name, contract.DNI.name,
+                   contract.FACADE_SETPOINTS.name]
+        if self._value('use_sim_time'):
+            watched.append(contract.CLOCK.name)
+        self.sources = SourceGuard(self, watched, who=self._who)
         self._index = panel_states.index_lookup(self.facade.panel_ids)
         subscription(self, contract.PANEL_STATES, self._on_panel_states, contract.OBSERVER)
         subscription(self, contract.SUN, self._on_sun)
@@ -111,7 +119,19 @@ class CoordinatorNode(Node):
         self.rejected[topic] += 1
         self.get_logger().warning(f'rejected {topic}: {reason}', throttle_duration_sec=1.0)
 
+    def _who(self, node_name):
+        return self.presence.who(node_name) if self.presence is not None else node_name
+
+    def _two_sources(self, topic):
+        """Refuse a message of ``topic`` (policy hold) while two publish it."""
+        if self.sources.doubled(topic):
+            self.sources.refuse(topic)
+            return True
+        return False
+
     def _on_sun(self, message):
+        if self._two_sources(contract.SUN.name):
+            return  # held: a stale sun holds the last commands
         v = message.vector
         vector = (v.x, v.y, v.z)
         if not all(math.isfinite(c) for c in vector) or abs(math.hypot(*vector) - 1.0) > 1e-6:
@@ -134,6 +154,9 @@ class CoordinatorNode(Node):
             return
         if reading[1] <= 0.0 or not self._ensure_schedule(reading[1]):
             return
+        if reading[0] < self.schedule.parameters.wind_on_m_s and \
+                self._two_sources(contract.WIND_SPEED.name):
+            return  # storm_only: a second source can trip the latch, never keep or release it
         scheduler = self.schedule.scheduler
         if reading[1] < scheduler.storm_time_s:
             self._reject('wind_speed', f'the clock went back to {reading[1]:.3f} s')
@@ -143,6 +166,8 @@ class CoordinatorNode(Node):
         self._storm_changed(was)
 
     def _on_dni(self, message):
+        if self._two_sources(contract.DNI.name):
+            return
         self._dni = self._on_reading('dni', message, 0.0, 1500.0) or self._dni
 
     def _on_panel_states(self, message):
@@ -348,16 +373,46 @@ class CoordinatorNode(Node):
                           mean_commanded_closure=f'{scheduler.commanded_closure.mean():.3f}')
             if scheduler.storm_latched:
                 level, message = diagnostics.WARN, 'storm: panels at the storm position'
+        values.update(self.sources.figures())
+        conflicts = self.presence.conflicts if self.presence is not None else []
+        values['domain_conflicts'] = '; '.join(conflicts)
+        for problem in conflicts[:1] + [self.sources.problem()]:
+            if problem:
+                level, message = diagnostics.ERROR, f'{message}; {problem}'
         if self.last_result is not None:
             reasons = Counter(reason.value for reason in self.last_result.reason)
             values.update({f'reason_{name}': count for name, count in reasons.items()})
         return diagnostics.status(self, level, 'schedule', self.facade.name, message, values)
 
 
+def start_coordinator():
+    """Create the coordinator of a process of its own; refuse beside another one.
+
+    ``ValueError`` (exit 2) when another live coordinator is heard on the domain
+    (:mod:`flectofold_ros.presence`). The check listens on a node of its own, so that no
+    second ``/facade/setpoints`` publisher shows on the graph meanwhile.
+    """
+    checker = Node('coordinator_start_check', namespace=contract.FACADE_NODE_NAMESPACE)
+    try:
+        own = presence.this_process(
+            presence.COORDINATOR, '', [f'{contract.FACADE_NODE_NAMESPACE}/'
+                                       f'{contract.COORDINATOR_NODE}'])
+        lines = Presence(checker, own).probe()
+    finally:
+        checker.destroy_node()
+    if lines:
+        raise ValueError(f'another facade on this ROS domain (ROS_DOMAIN_ID): '
+                         f'{"; ".join(lines)}')
+    node = CoordinatorNode()
+    node.presence = Presence(node, presence.this_process(
+        presence.COORDINATOR, node.facade.name, [node.get_fully_qualified_name()]))
+    node.presence.announce()
+    return Program([node])
+
+
 def main(args=None):
     """``ros2 run flectofold_ros coordinator_node --ros-args -p use_sim_time:=true``."""
-    return run_nodes('coordinator_node', args, lambda: Program([CoordinatorNode()]), USAGE,
-                     PARAMETERS)
+    return run_nodes('coordinator_node', args, start_coordinator, USAGE, PARAMETERS)
 
 
 if __name__ == '__main__':

@@ -35,7 +35,8 @@ from flectofold_model.control.hardware import SimulatedCushions
 from flectofold_model.control.panel_loops import LoopSample, panel_indices
 from flectofold_model.facade import DEFAULT_FACADE, load_facade
 from flectofold_model.kinematics.kinds import panel_kind
-from flectofold_ros import contract, diagnostics, facade_setpoints, panel_states
+from flectofold_ros import contract, diagnostics, facade_setpoints, panel_states, presence
+from flectofold_ros.domain_watch import Presence, senders, service_clients, SourceGuard
 from flectofold_ros.fault_injection import FaultInjector, FaultRequestError, parse_request
 from flectofold_ros.interfaces import publisher, service, subscription
 from flectofold_ros.parameters import choice, declare_all, double, integer, string
@@ -247,6 +248,12 @@ class PanelProcess:
         self._index_of = {panel.panel_id: index for index, panel in enumerate(panels)}
         self.setpoint_messages_refused, self.last_setpoints_refusal = 0, ''
         self._setpoint_refusals_since_report = 0
+        self.presence = None
+        """The process's :class:`~flectofold_ros.domain_watch.Presence` (set by start_panels)."""
+        watched = [contract.FACADE_SETPOINTS.name]
+        if settings.get_parameter('use_sim_time').value:
+            watched.append(contract.CLOCK.name)
+        self.sources = SourceGuard(settings, watched, who=self._who)
         subscription(settings, contract.FACADE_SETPOINTS, self._on_facade_setpoints)
         settings.add_post_set_parameters_callback(self._apply_parameters)
         self._tick_timer = settings.create_timer(self.control_period_s, self._tick)
@@ -308,7 +315,8 @@ class PanelProcess:
         if indices.size:  # else the panels are another process's
             self.fault_requests_applied += 1
             self.settings.get_logger().warning(
-                f'fault request: {request.describe()} ({indices.size} panel(s) here)')
+                f'fault request: {request.describe()} ({indices.size} panel(s) here), from '
+                f'{senders(self.settings, contract.INJECT_FAULT.name)}')
 
     def _end_timed_faults(self, now_s):
         for panel_id, kind in self.injector.expire(now_s) if self.injector else ():
@@ -330,7 +338,14 @@ class PanelProcess:
             return
         # the next tick hands it to the loop (with every panel's, after the watchdog)
 
+    def _who(self, node_name):
+        return self.presence.who(node_name) if self.presence is not None else node_name
+
     def _on_facade_setpoints(self, message):
+        if self.sources.doubled(contract.FACADE_SETPOINTS.name):
+            # policy hold: whose message this is cannot be told; the watchdog vents the panels
+            self.sources.refuse(contract.FACADE_SETPOINTS.name)
+            return
         try:
             pairs = facade_setpoints.entries(message.name, message.position)
             unknown = [name for name, _ in pairs if name not in self._facade_id_set]
@@ -350,9 +365,13 @@ class PanelProcess:
                 self.offer(index, closure, self.panels[index].get_logger())
 
     def reset_faults(self, index):
-        """Clear panel ``index``'s latched fault; return what was cleared."""
+        """Clear panel ``index``'s latched fault, logged with its sender; return what it was."""
         fault = self.loops.controller.fault_at(index)
         self.loops.reset_faults([index])
+        panel = self.panels[index]
+        panel.get_logger().warning(
+            f'reset_faults ({fault.value}) from '
+            f'{service_clients(self.settings, contract.reset_faults_service(panel.panel_id))}')
         return f'cleared {fault.value}' if fault is not Fault.NONE else 'no fault'
 
     # -- the tick ---------------------------------------------------------------------------
@@ -553,6 +572,12 @@ class PanelProcess:
             if self.loops.driver.comms_lost:
                 level, message = diagnostics.ERROR, (
                     f'{message}; comms lost: {figures["modbus_last_error"]}')
+        figures.update(self.sources.figures())
+        conflicts = self.presence.conflicts if self.presence is not None else []
+        figures['domain_conflicts'] = '; '.join(conflicts)
+        for problem in conflicts[:1] + [self.sources.problem()]:
+            if problem:
+                level, message = diagnostics.ERROR, f'{message}; {problem}'
         for count, what, reason in (
                 (self._fault_refusals_since_report, 'fault request(s)', self.last_fault_refusal),
                 (self._setpoint_refusals_since_report, 'setpoints message(s)',
@@ -682,8 +707,17 @@ def start_panels(panel_ids=None, group_name=None, seed=0, teardown=True, **node_
         ids = [panel.panel_id for panel in panels]
         if len(set(ids)) != len(ids):
             raise ValueError(f'a panel is named twice in {", ".join(ids)}')
+        watch = Presence(settings)  # listening while the loops are built
         loops, origins, facade_ids, kind = build_loops(settings, ids, seed=seed)
+        watch.own = presence.this_process(
+            presence.PANELS, settings.get_parameter('facade_file').value or 'demonstrator',
+            [settings.get_fully_qualified_name()], ids)
+        if lines := watch.probe():
+            raise ValueError(f'another facade on this ROS domain (ROS_DOMAIN_ID): '
+                             f'{"; ".join(lines)}')
         process = PanelProcess(settings, panels, loops, origins, facade_ids, kind)
+        process.presence = watch
+        watch.announce()
     except BaseException:
         for node in nodes:
             node.destroy_node()

@@ -6,6 +6,7 @@ publishes ``/clock`` running ``speedup`` times the steady clock from ``start_tim
 ``end_time``. Topics, parameters and QoS: ``msg_docs/sun_position.md``.
 """
 
+from collections import OrderedDict
 import sys
 
 from builtin_interfaces.msg import Time
@@ -29,6 +30,9 @@ MODES = ('wall', 'simulated')
 LONGEST_TICKS = 5.0
 #: Rate of the repeated final /clock once the simulated day is over [Hz].
 FINISHED_CLOCK_RATE_HZ = 1.0
+#: Distinct /clock values the node remembers having sent (:meth:`SunPositionNode.sent_clock`):
+#: 80 s of its 50 Hz clock, far longer than a message takes to arrive on a busy machine.
+SENT_CLOCK_KEPT = 4096
 # builtin_interfaces/Time has an int32 ``sec``, and rclpy refuses negative times.
 TIME_RANGE_ISO = ('1970-01-01T00:00:00Z', '2038-01-19T03:14:07Z')
 NS_PER_S = 10**9
@@ -180,6 +184,7 @@ class SunPositionNode(Node):
         if self._value('use_sim_time'):
             raise ValueError(_SIM_TIME_REFUSED)
         self._clock_publisher = publisher(self, contract.CLOCK)
+        self._sent_clock = OrderedDict()
         self._steady = Clock(clock_type=ClockType.STEADY_TIME)
         self._last_tick = None  # the first tick: the simulated day starts when spun
         self._elapsed_s = 0.0
@@ -263,6 +268,10 @@ class SunPositionNode(Node):
         self._sim_epoch_s = self.simulated_clock.sim_epoch_s(elapsed_s)
         sim_ns = _to_ns(self._sim_epoch_s)
         self._clock_publisher.publish(ClockMessage(clock=_stamp(sim_ns)))
+        self._sent_clock[sim_ns] = None
+        self._sent_clock.move_to_end(sim_ns)
+        if len(self._sent_clock) > SENT_CLOCK_KEPT:
+            self._sent_clock.popitem(last=False)
         if self._finished:
             return
         self._publish_due_sun(sim_ns)
@@ -311,6 +320,10 @@ class SunPositionNode(Node):
     def release(self):
         """Let simulated time run again from where it was held."""
         self._held = False
+
+    def sent_clock(self, clock_ns):
+        """Whether ``/clock`` at ``clock_ns`` [ns] is one this node sent (of its latest ones)."""
+        return clock_ns in self._sent_clock
 
     @property
     def held(self):

@@ -137,6 +137,35 @@ def test_a_signal_in_an_extension_module_s_initialisation_is_a_clean_stop(monkey
     assert executables.run('fold_table', []) == executables.EXECUTABLES['fold_table'][1]
 
 
+def test_a_signal_in_a_class_body_while_importing_is_a_clean_stop(monkeypatch):
+    """A dataclass field's ``__set_name__`` wraps it in a RuntimeError (seen: scipy, 0.4 s)."""
+    import importlib
+    from flectofold_ros import executables
+
+    def importing(name):
+        try:
+            deliver()
+        except Interrupted as error:
+            raise RuntimeError("Error calling __set_name__ on 'Field' instance") from error
+    monkeypatch.setattr(importlib, 'import_module', importing)
+    assert executables.run('fold_table', []) == executables.EXECUTABLES['fold_table'][1]
+
+
+def test_a_runtime_error_without_a_signal_is_not_hidden(monkeypatch):
+    import importlib
+    from flectofold_ros import executables
+
+    def importing(name):
+        try:
+            deliver()
+        except Interrupted:
+            pass  # a stop was asked for, but the error below does not come from it
+        raise RuntimeError('a real error')
+    monkeypatch.setattr(importlib, 'import_module', importing)
+    with pytest.raises(RuntimeError, match='a real error'):
+        executables.run('fold_table', [])
+
+
 def test_an_import_error_without_a_signal_is_not_hidden(monkeypatch):
     import importlib
     from flectofold_ros import executables

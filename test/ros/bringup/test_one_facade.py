@@ -1,0 +1,148 @@
+"""One facade per ROS domain, and inputs with one source (``presence.py``, ``domain_watch.py``).
+
+Each test runs a real ``facade`` day (2 x 2 panels in two panel processes) and does to it
+what a second operator or a stray process on the same domain would: start a second facade,
+coordinator or panel process; publish a second ``/clock``; publish ``/facade/setpoints`` beside
+the coordinator; reset faults and request one.
+"""
+
+import socket
+import time
+
+from bringup_day import start_day, supervised_facade_file
+import pytest
+from ros_graph import domain_for, Graph
+from rosgraph_msgs.msg import Clock
+from sensor_msgs.msg import JointState
+
+from flectofold_ros import contract
+from flectofold_ros.interfaces import client, message_class, publisher, subscription
+
+pytestmark = pytest.mark.graph
+
+
+@pytest.fixture()
+def small_facade_file(small_facade_text, tmp_path):
+    return supervised_facade_file(small_facade_text, tmp_path)
+
+
+def finish(graph, process, timeout_s):
+    """Wait (spinning the probe) for ``process`` to end; return its exit code."""
+    graph.spin_until(lambda: process.poll() is not None, timeout_s)
+    return process.poll()
+
+
+def test_a_second_facade_coordinator_or_panel_process_is_refused_naming_the_first(
+        small_facade_file):
+    graph = Graph(domain_for(71))
+    try:
+        first, output = start_day(graph, small_facade_file, '13:00', '--panel-processes', '2')
+        codes, texts = [], []
+        for command in (['facade', '--facade', str(small_facade_file), '--start', '11:00',
+                         '--end', '11:10', '--panel-processes', '2'],
+                        ['coordinator_node', '--ros-args', '-p',
+                         f'facade_file:={small_facade_file}'],
+                        ['panel_group', '--panels', 'r00c01', '--name', 'intruder', '--facade',
+                         str(small_facade_file)]):  # one after the other, as an operator would
+            intruder = graph.start(*command)
+            codes.append(finish(graph, intruder, 120))
+            texts.append(graph.stop(intruder)[1])
+        assert output.wait_for(graph, 'day finished', 300), output.text
+        finish(graph, first, 60)
+        output.wait_for(graph, 'never printed', 1.0)
+    finally:
+        graph.close()
+    first_is = f"of 'small' (host {socket.gethostname()}, pid {first.pid})"
+    assert first.returncode == 0, output.text
+    assert codes == [2, 2, 2], texts
+    assert f'facade: another facade on this ROS domain (ROS_DOMAIN_ID {graph.domain_id}): ' \
+           f'facade bringup {first_is} already holds /clock, /facade/coordinator' \
+        in texts[0], texts[0]
+    assert f'coordinator_node: another facade on this ROS domain (ROS_DOMAIN_ID): ' \
+           f'facade bringup {first_is} already holds /facade/coordinator' in texts[1], texts[1]
+    assert 'panel_group: another facade on this ROS domain (ROS_DOMAIN_ID): panel process ' \
+           "of '" in texts[2] and 'already holds panel(s) r00c01' in texts[2], texts[2]
+    assert all('Traceback' not in text for text in texts)
+    # the first ran on, untouched: none of the refused ones announced itself to it
+    assert 'CONFLICT' not in output.text and 'panels reporting: 4/4' in output.text
+    assert 'Traceback' not in output.text
+
+
+def test_a_second_clock_stops_the_day_with_an_error_and_exit_code_5(small_facade_file):
+    graph = Graph(domain_for(72), name='stray_clock')
+    try:
+        bringup, output = start_day(graph, small_facade_file, '14:00', '--panel-processes', '2')
+        stray = publisher(graph.node, contract.CLOCK)
+        deadline = time.monotonic() + 60
+        while bringup.poll() is None and time.monotonic() < deadline:
+            stray.publish(Clock(clock=graph.node.get_clock().now().to_msg()))  # wall time
+            graph.spin_for(0.1)
+        assert finish(graph, bringup, 60) == 5
+        output.wait_for(graph, 'never printed', 1.0)
+    finally:
+        graph.close()
+    text = output.text
+    assert 'facade: ERROR: a second /clock (' in text, text
+    assert '/stray_clock (announced no flectofold process: host unknown)' in text
+    assert 'CONFLICT: the day was stopped at 11:' in text, text
+    assert 'day finished' not in text  # the stray's far later time did not end the day
+    assert 'Traceback' not in text
+
+
+def test_setpoints_beside_the_coordinators_are_refused_and_senders_of_resets_are_logged(
+        small_facade_file):
+    """Also: each accepted fault request and reset is logged with who can have sent it."""
+    graph = Graph(domain_for(73), name='stranger')
+    tracked, errors = [], []
+
+    def on_diagnostics(message):
+        for status in message.status:
+            values = {kv.key: kv.value for kv in status.values}
+            if 'setpoint' in values:
+                tracked.append(float(values['setpoint']))
+            if status.name.endswith(': panel process') and ord(status.level) == 2:
+                errors.append(status.message)
+
+    subscription(graph.node, contract.DIAGNOSTICS, on_diagnostics)
+    try:
+        bringup, output = start_day(graph, small_facade_file, '13:30', '--panel-processes', '2')
+        stranger = publisher(graph.node, contract.FACADE_SETPOINTS)
+        ids = ['r00c00', 'r00c01', 'r01c00', 'r01c01']
+        graph.spin_until(lambda: errors, 30)
+        for _ in range(20):
+            stranger.publish(JointState(name=ids, position=[0.123] * 4))
+            graph.spin_for(0.2)
+        assert output.wait_for(graph, 'publishers on /facade/setpoints, which has one', 30), \
+            output.text
+        graph.node.destroy_publisher(stranger)
+        assert output.wait_for(graph, 'one publisher on /facade/setpoints again', 30), \
+            output.text
+        inject = publisher(graph.node, contract.INJECT_FAULT)
+        graph.spin_until(lambda: graph.node.count_subscribers(contract.INJECT_FAULT.name) >= 2,
+                         30)
+        inject.publish(message_class(contract.INJECT_FAULT.msgtype)(
+            name=contract.INJECT_SUPPLY_LOSS, hardware_id='r01c01'))
+        assert output.wait_for(graph, 'fault request: supply_loss', 30), output.text
+        reset = client(graph.node, contract.reset_faults_service('r01c01'),
+                       contract.RESET_FAULTS_TYPE)
+        assert reset.wait_for_service(timeout_sec=30)
+        future = reset.call_async(message_class(contract.RESET_FAULTS_TYPE).Request())
+        graph.spin_until(future.done, 30)
+        assert output.wait_for(graph, 'day finished', 240), output.text
+        finish(graph, bringup, 60)
+        output.wait_for(graph, 'never printed', 1.0)
+    finally:
+        graph.close()
+    text = output.text
+    assert 0.123 not in tracked  # the stranger's closure was never taken
+    assert any('a second source on /facade/setpoints (2 publishers)' in message
+               for message in errors), errors
+    line = next(line for line in text.splitlines()
+                if 'publishers on /facade/setpoints, which has one' in line)
+    assert '/stranger (announced no flectofold process: host unknown)' in line
+    assert f"/facade/coordinator (facade bringup of 'small' (host " \
+           f'{socket.gethostname()}, pid {bringup.pid}))' in line
+    assert 'policy hold' in line
+    assert 'fault request: supply_loss on r01c01' in text and 'from /stranger' in text, text
+    assert 'reset_faults (' in text and ') from /stranger' in text, text
+    assert bringup.returncode == 0, text  # the panels held safe; the day went on
