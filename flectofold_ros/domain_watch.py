@@ -18,7 +18,7 @@ from diagnostic_msgs.msg import DiagnosticStatus, KeyValue
 from rclpy.clock import Clock, ClockType
 from rclpy.executors import SingleThreadedExecutor
 
-from flectofold_ros import presence
+from flectofold_ros import contract, presence
 from flectofold_ros.interfaces import publisher, subscription
 
 #: Wall seconds a process listens at start for the announcements of others, at least (DDS
@@ -31,6 +31,9 @@ PROBE_LIMIT_S = 30.0
 #: the others' initial peers (more than four on one host, ``ROS_AUTOMATIC_DISCOVERY_RANGE=
 #: LOCALHOST``) may hear of them only at their next announcement.
 SETTLED_S = 4.0
+#: What announcements are heard with: every live writer's one, up to 100 processes, also
+#: when they arrive in a burst before the node is spun.
+LISTENING = contract.Qos(depth=100, latched=True)
 #: Wall seconds between two looks at the graph.
 CHECK_PERIOD_S = 1.0
 
@@ -58,11 +61,14 @@ class Presence:
         self._on_graph = set()
         """Announcing nodes seen on the graph (:meth:`_forget_the_gone`)."""
         """Announcing nodes whose announcement came (this process's own too)."""
-        subscription(node, presence.INSTANCES, self._on_instance)
+        # deeper than the writers' one: announcements of several processes come in a burst
+        subscription(node, presence.INSTANCES, self._on_instance, LISTENING)
         node.create_timer(CHECK_PERIOD_S, self._forget_the_gone,
                           clock=Clock(clock_type=ClockType.STEADY_TIME))
 
     def probe(self, wait_s=PROBE_S, limit_s=PROBE_LIMIT_S):
+        # Only a short-lived node of its own is probed (StartCheck): a program's node spun
+        # here, then added to the events executor, does not run its ROS-time timers there.
         """Listen, then return the conflict lines.
 
         From when this object was made: at least ``wait_s``, then on while the graph's node
@@ -149,6 +155,33 @@ class Presence:
     def who(self, node_name):
         """Name a node with its host and process when another instance announced it."""
         return presence.who(node_name, self.others.values())
+
+
+class StartCheck:
+    """A short-lived node that listens for other instances from its making to :meth:`refuse`.
+
+    Made early (a process listens while it loads), checked and destroyed before the program's
+    own nodes run. ``namespace``/``name``: the node's, ``context`` rclpy's.
+    """
+
+    def __init__(self, name, context=None):
+        from rclpy.node import Node
+        kwargs = {'context': context} if context is not None else {}
+        self.node = Node(name, namespace=contract.FACADE_NODE_NAMESPACE,
+                         start_parameter_services=False, **kwargs)
+        self.presence = Presence(self.node)
+
+    def refuse(self, own):
+        """Listen (:meth:`Presence.probe`), destroy the node; ValueError naming a conflict."""
+        self.presence.own = own
+        try:
+            lines = self.presence.probe()
+        finally:
+            self.node.destroy_node()
+        if lines:
+            domain = self.node.context.get_domain_id()
+            raise ValueError(f'another facade on this ROS domain (ROS_DOMAIN_ID {domain}): '
+                             f'{"; ".join(lines)}')
 
 
 class SourceGuard:

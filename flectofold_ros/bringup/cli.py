@@ -30,7 +30,7 @@ from flectofold_ros.bringup.monitor import Monitor
 from flectofold_ros.bringup.plan import local_time, MAX_LAG_S, plan_day
 from flectofold_ros.bringup.supervision import RestartPolicy, Supervisor
 from flectofold_ros.commands.structure_cache import prepare_structural_map
-from flectofold_ros.domain_watch import Presence
+from flectofold_ros.domain_watch import Presence, StartCheck
 from flectofold_ros.interfaces import publisher
 from flectofold_ros.nodes.coordinator import CoordinatorNode
 from flectofold_ros.nodes.panel import MAX_CALL_S, start_panels
@@ -270,11 +270,8 @@ class Bringup(Program):
             [self.monitor.get_fully_qualified_name(), f'{namespace}/{contract.COORDINATOR_NODE}',
              f'{namespace}/{contract.SUN_POSITION_NODE}'],
             () if self.plan.panel_processes else self.facade.panel_ids, clock=True)
+        StartCheck('facade_start_check').refuse(own)
         self.presence = Presence(self.monitor, own, on_conflict=self._conflict)
-        lines = self.presence.probe()
-        if lines:
-            raise ValueError(f'another facade on this ROS domain (ROS_DOMAIN_ID '
-                             f'{self.monitor.context.get_domain_id()}): {"; ".join(lines)}')
         self.presence.announce()
 
     def _conflict(self, line):

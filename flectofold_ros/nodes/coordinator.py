@@ -25,7 +25,7 @@ from flectofold_model.scheduling.predictive import DEFAULT_CONTROLLER
 from flectofold_model.scheduling.scheduler import OverrideRefused
 from flectofold_model.shading import ShadingTable
 from flectofold_ros import contract, diagnostics, facade_setpoints, panel_states, presence
-from flectofold_ros.domain_watch import Presence, SourceGuard
+from flectofold_ros.domain_watch import Presence, SourceGuard, StartCheck
 from flectofold_ros.interfaces import publisher, subscription
 from flectofold_ros.parameters import declare_all, double, string
 from flectofold_ros.runner import Program, run_nodes
@@ -392,17 +392,9 @@ def start_coordinator():
     (:mod:`flectofold_ros.presence`). The check listens on a node of its own, so that no
     second ``/facade/setpoints`` publisher shows on the graph meanwhile.
     """
-    checker = Node('coordinator_start_check', namespace=contract.FACADE_NODE_NAMESPACE)
-    try:
-        own = presence.this_process(
-            presence.COORDINATOR, '', [f'{contract.FACADE_NODE_NAMESPACE}/'
-                                       f'{contract.COORDINATOR_NODE}'])
-        lines = Presence(checker, own).probe()
-    finally:
-        checker.destroy_node()
-    if lines:
-        raise ValueError(f'another facade on this ROS domain (ROS_DOMAIN_ID): '
-                         f'{"; ".join(lines)}')
+    StartCheck('coordinator_start_check').refuse(presence.this_process(
+        presence.COORDINATOR, '', [f'{contract.FACADE_NODE_NAMESPACE}/'
+                                   f'{contract.COORDINATOR_NODE}']))
     node = CoordinatorNode()
     node.presence = Presence(node, presence.this_process(
         presence.COORDINATOR, node.facade.name, [node.get_fully_qualified_name()]))

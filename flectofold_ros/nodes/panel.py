@@ -36,7 +36,8 @@ from flectofold_model.control.panel_loops import LoopSample, panel_indices
 from flectofold_model.facade import DEFAULT_FACADE, load_facade
 from flectofold_model.kinematics.kinds import panel_kind
 from flectofold_ros import contract, diagnostics, facade_setpoints, panel_states, presence
-from flectofold_ros.domain_watch import Presence, senders, service_clients, SourceGuard
+from flectofold_ros.domain_watch import (Presence, senders, service_clients, SourceGuard,
+                                         StartCheck)
 from flectofold_ros.fault_injection import FaultInjector, FaultRequestError, parse_request
 from flectofold_ros.interfaces import publisher, service, subscription
 from flectofold_ros.parameters import choice, declare_all, double, integer, string
@@ -707,17 +708,16 @@ def start_panels(panel_ids=None, group_name=None, seed=0, teardown=True, **node_
         ids = [panel.panel_id for panel in panels]
         if len(set(ids)) != len(ids):
             raise ValueError(f'a panel is named twice in {", ".join(ids)}')
-        watch = Presence(settings)  # listening while the loops are built
+        # listening while the loops are built
+        check = StartCheck(f'{settings.get_name()}_start_check', settings.context)
         loops, origins, facade_ids, kind = build_loops(settings, ids, seed=seed)
-        watch.own = presence.this_process(
+        own = presence.this_process(
             presence.PANELS, settings.get_parameter('facade_file').value or 'demonstrator',
             [settings.get_fully_qualified_name()], ids)
-        if lines := watch.probe():
-            raise ValueError(f'another facade on this ROS domain (ROS_DOMAIN_ID): '
-                             f'{"; ".join(lines)}')
+        check.refuse(own)
         process = PanelProcess(settings, panels, loops, origins, facade_ids, kind)
-        process.presence = watch
-        watch.announce()
+        process.presence = Presence(settings, own)
+        process.presence.announce()
     except BaseException:
         for node in nodes:
             node.destroy_node()

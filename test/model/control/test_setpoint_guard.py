@@ -20,6 +20,23 @@ def test_bad_setpoints_are_refused_and_the_last_valid_one_holds(value, reason):
     assert guard.command(3.0) == (0.4, SetpointState.TRACKING)
 
 
+@pytest.mark.parametrize('value', [0.0, -0.0, 1.0, np.float64(1.0), np.nextafter(0.0, 1.0),
+                                   np.nextafter(1.0, 0.0)])
+def test_each_end_of_the_range_is_taken(value):
+    guard = SetpointGuard(timeout_s=10.0)
+    assert guard.offer(value, now_s=1.0) is None
+    assert guard.command(1.0) == (float(value), SetpointState.TRACKING)
+
+
+@pytest.mark.parametrize('value', [np.nextafter(1.0, 2.0), np.nextafter(0.0, -1.0),
+                                   1.0000000001])
+def test_one_step_beyond_either_end_is_refused(value):
+    """The smallest double past 1 (or below 0): a guard widened by any margin fails here."""
+    guard = SetpointGuard(timeout_s=10.0)
+    assert 'outside [0, 1]' in guard.offer(value, now_s=1.0)
+    assert guard.command(1.0)[1] is SetpointState.WAITING
+
+
 def test_numpy_and_integer_setpoints_are_numbers():
     guard = SetpointGuard(timeout_s=10.0)
     assert guard.offer(np.float64(0.25), 0.0) is None

@@ -382,6 +382,18 @@ def test_set_override_refuses_bad_input(arguments, message):
         scheduler.set_override(**{'now_s': DAY_S, **arguments})
 
 
+@pytest.mark.parametrize('closure, taken', [
+    (0.0, True), (1.0, True), (np.nextafter(0.0, -1.0), False), (np.nextafter(1.0, 2.0), False)])
+def test_an_override_takes_each_end_of_the_closure_range_and_refuses_one_step_beyond(
+        closure, taken):
+    scheduler = make(3)
+    if taken:
+        scheduler.set_override(closure, DAY_S, panels=[0])
+    else:
+        with pytest.raises(ValueError, match='closure must lie in'):
+            scheduler.set_override(closure, DAY_S, panels=[0])
+
+
 def test_zone_needs_zones():
     with pytest.raises(ValueError, match='zone=1 given but the scheduler has no zones'):
         make(2).set_override(0.5, DAY_S, zone=1)

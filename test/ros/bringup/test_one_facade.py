@@ -58,10 +58,12 @@ def test_a_second_facade_coordinator_or_panel_process_is_refused_naming_the_firs
     assert f'facade: another facade on this ROS domain (ROS_DOMAIN_ID {graph.domain_id}): ' \
            f'facade bringup {first_is} already holds /clock, /facade/coordinator' \
         in texts[0], texts[0]
-    assert f'coordinator_node: another facade on this ROS domain (ROS_DOMAIN_ID): ' \
+    assert f'coordinator_node: another facade on this ROS domain (ROS_DOMAIN_ID ' \
+           f'{graph.domain_id}): ' \
            f'facade bringup {first_is} already holds /facade/coordinator' in texts[1], texts[1]
-    assert 'panel_group: another facade on this ROS domain (ROS_DOMAIN_ID): panel process ' \
-           "of '" in texts[2] and 'already holds panel(s) r00c01' in texts[2], texts[2]
+    assert f'panel_group: another facade on this ROS domain (ROS_DOMAIN_ID {graph.domain_id}' \
+           "): panel process of '" in texts[2], texts[2]
+    assert 'already holds panel(s) r00c01' in texts[2], texts[2]
     assert all('Traceback' not in text for text in texts)
     # the first ran on, untouched: none of the refused ones announced itself to it
     assert 'CONFLICT' not in output.text and 'panels reporting: 4/4' in output.text
