@@ -19,6 +19,7 @@ from rclpy.clock import Clock, ClockType
 from rclpy.executors import SingleThreadedExecutor
 
 from flectofold_ros import contract, presence
+from flectofold_ros.diagnostics import ERROR
 from flectofold_ros.interfaces import publisher, subscription
 
 #: Wall seconds a process listens at start for the announcements of others, at least (DDS
@@ -243,6 +244,21 @@ class SourceGuard:
         """``/diagnostics`` figures: second publishers seen, messages refused for them."""
         return {'second_publishers': self.second_publishers,
                 'messages_refused_for_two_sources': sum(self.refused.values())}
+
+
+def report_domain(watch, sources, level, message, figures):
+    """Add a status's domain figures; return its level and message, ERROR on a problem.
+
+    ``watch`` is the process's :class:`Presence` (None: the conflicts are another's to
+    report), ``sources`` its :class:`SourceGuard`; ``figures`` (a dict) gains their figures.
+    """
+    figures.update(sources.figures())
+    conflicts = watch.conflicts if watch is not None else []
+    figures['domain_conflicts'] = '; '.join(conflicts)
+    for problem in conflicts[:1] + [sources.problem()]:
+        if problem:
+            level, message = ERROR, f'{message}; {problem}'
+    return level, message
 
 
 def senders(node, topic):

@@ -25,7 +25,7 @@ from flectofold_model.scheduling.predictive import DEFAULT_CONTROLLER
 from flectofold_model.scheduling.scheduler import OverrideRefused
 from flectofold_model.shading import ShadingTable
 from flectofold_ros import contract, diagnostics, facade_setpoints, panel_states, presence
-from flectofold_ros.domain_watch import Presence, SourceGuard, StartCheck
+from flectofold_ros.domain_watch import Presence, report_domain, SourceGuard, StartCheck
 from flectofold_ros.interfaces import publisher, subscription
 from flectofold_ros.parameters import declare_all, double, string
 from flectofold_ros.runner import Program, run_nodes
@@ -373,12 +373,7 @@ class CoordinatorNode(Node):
                           mean_commanded_closure=f'{scheduler.commanded_closure.mean():.3f}')
             if scheduler.storm_latched:
                 level, message = diagnostics.WARN, 'storm: panels at the storm position'
-        values.update(self.sources.figures())
-        conflicts = self.presence.conflicts if self.presence is not None else []
-        values['domain_conflicts'] = '; '.join(conflicts)
-        for problem in conflicts[:1] + [self.sources.problem()]:
-            if problem:
-                level, message = diagnostics.ERROR, f'{message}; {problem}'
+        level, message = report_domain(self.presence, self.sources, level, message, values)
         if self.last_result is not None:
             reasons = Counter(reason.value for reason in self.last_result.reason)
             values.update({f'reason_{name}': count for name, count in reasons.items()})

@@ -36,8 +36,8 @@ from flectofold_model.control.panel_loops import LoopSample, panel_indices
 from flectofold_model.facade import DEFAULT_FACADE, load_facade
 from flectofold_model.kinematics.kinds import panel_kind
 from flectofold_ros import contract, diagnostics, facade_setpoints, panel_states, presence
-from flectofold_ros.domain_watch import (Presence, senders, service_clients, SourceGuard,
-                                         StartCheck)
+from flectofold_ros.domain_watch import (Presence, report_domain, senders, service_clients,
+                                         SourceGuard, StartCheck)
 from flectofold_ros.fault_injection import FaultInjector, FaultRequestError, parse_request
 from flectofold_ros.interfaces import publisher, service, subscription
 from flectofold_ros.parameters import choice, declare_all, double, integer, string
@@ -573,12 +573,7 @@ class PanelProcess:
             if self.loops.driver.comms_lost:
                 level, message = diagnostics.ERROR, (
                     f'{message}; comms lost: {figures["modbus_last_error"]}')
-        figures.update(self.sources.figures())
-        conflicts = self.presence.conflicts if self.presence is not None else []
-        figures['domain_conflicts'] = '; '.join(conflicts)
-        for problem in conflicts[:1] + [self.sources.problem()]:
-            if problem:
-                level, message = diagnostics.ERROR, f'{message}; {problem}'
+        level, message = report_domain(self.presence, self.sources, level, message, figures)
         for count, what, reason in (
                 (self._fault_refusals_since_report, 'fault request(s)', self.last_fault_refusal),
                 (self._setpoint_refusals_since_report, 'setpoints message(s)',
