@@ -28,7 +28,7 @@ from flectofold_ros.bringup.fault_script import load_fault_script
 from flectofold_ros.bringup.fault_script_node import FaultScriptNode
 from flectofold_ros.bringup.monitor import Monitor
 from flectofold_ros.bringup.plan import local_time, MAX_LAG_S, plan_day
-from flectofold_ros.bringup.supervision import RestartPolicy, Supervisor
+from flectofold_ros.bringup.supervision import hangs, RestartPolicy, Supervisor
 from flectofold_ros.commands.structure_cache import prepare_structural_map
 from flectofold_ros.domain_watch import Presence, StartCheck
 from flectofold_ros.interfaces import publisher
@@ -55,7 +55,8 @@ PANELS_STOP_S, OBSERVERS_STOP_S = 10.0, 120.0
 #: the start's wait: a restart competes with the running processes for the CPU).
 RESTART_WAIT_S = 2.0 * START_WAIT_S
 #: Wall seconds without /diagnostics (sent every second) after which a panel process that
-#: reported before counts as hung and is killed, to be restarted.
+#: reported before counts as hung and is killed, to be restarted; one that never reported
+#: counts as hung START_WAIT_S after its start.
 HUNG_S = 15.0
 #: Exit codes of a day that was interrupted, of one whose processes failed to start, of one
 #: that lost a supervised process for good, and of one stopped because another facade or a
@@ -418,11 +419,15 @@ class Bringup(Program):
                 child.settings_node in self.monitor.process_heard_s)
 
     def _kill_hung(self):
-        """Kill a running panel process whose /diagnostics stopped for HUNG_S (it hangs)."""
+        """Kill a running panel process that hangs (:func:`supervision.hangs`)."""
+        now_s = time.monotonic()
         for child in self.supervisor.children:
-            if child.panels and child.state == 'running' and \
-                    self.monitor.silent_s(child.settings_node) > HUNG_S:
-                self.supervisor.kill_hung(child, f'silent for {HUNG_S:g} s')
+            if child.panels and child.state == 'running':
+                why = hangs(self.monitor.silent_s(child.settings_node, child.panels),
+                            self.monitor.reported(child.settings_node, child.panels),
+                            now_s - child.started_at_s, HUNG_S, START_WAIT_S)
+                if why:
+                    self.supervisor.kill_hung(child, why)
 
     def _publish_supervision(self):
         """One status per supervised process on /diagnostics (OK, WARN restarting, ERROR lost)."""

@@ -52,6 +52,8 @@ class Monitor(Node):
         """Largest lag behind the clock any panel process's simulation reported [s]."""
         self.process_heard_s = {}
         """Panel process (settings node name) -> monotonic time of its last /diagnostics."""
+        self.first_state_wall_s = np.full(count, np.nan)
+        """Monotonic time of each panel's first state since it was last forgotten [s]."""
         self.foreign = 0
         """``panel_states`` messages or points that are not of this facade, ignored."""
         self.own_clock = None
@@ -81,6 +83,8 @@ class Monitor(Node):
         known = index >= 0
         self.foreign += int(np.count_nonzero(~known))
         index, table = index[known], table[known]
+        first = self.first_state_wall_s[index]
+        self.first_state_wall_s[index] = np.where(np.isnan(first), time.monotonic(), first)
         self.state_stamp_s[index] = panel_states.stamp_ns(message.header) * 1e-9
         self.closure[index], self.setpoint[index] = table['closure'], table['setpoint']
         self.fault[index], self.status[index] = table['fault'], table['status']
@@ -92,7 +96,7 @@ class Monitor(Node):
         they report, they trail the clock from here (:meth:`lag_s`).
         """
         index = self._indices(panel_ids)
-        for values in (self.state_stamp_s, self.closure, self.setpoint):
+        for values in (self.state_stamp_s, self.closure, self.setpoint, self.first_state_wall_s):
             values[index] = np.nan
         self.restarted_at_s[index] = np.nan if self.clock_s is None else self.clock_s
         self.fault[index], self.status[index] = 0, 0
@@ -101,10 +105,20 @@ class Monitor(Node):
         """Whether every one of ``panel_ids`` has reported since it was last forgotten."""
         return bool(np.all(np.isfinite(self.state_stamp_s[self._indices(panel_ids)])))
 
-    def silent_s(self, process_name):
-        """Wall seconds since panel process ``process_name`` last reported; 0 if never yet."""
-        heard = self.process_heard_s.get(process_name)
-        return 0.0 if heard is None else time.monotonic() - heard
+    def silent_s(self, process_name, panel_ids):
+        """Wall seconds panel process ``process_name`` has been silent on /diagnostics.
+
+        Counted from its last status there; before its first, from when the last of its
+        panels ``panel_ids`` first reported a state (a process stopped between its panels'
+        first states and its first status is silent too); 0 while neither has happened.
+        """
+        return silence_s(time.monotonic(), self.process_heard_s.get(process_name),
+                         self.first_state_wall_s[self._indices(panel_ids)])
+
+    def reported(self, process_name, panel_ids):
+        """Whether panel process ``process_name`` or one of its panels has reported yet."""
+        return process_name in self.process_heard_s or bool(
+            np.isfinite(self.first_state_wall_s[self._indices(panel_ids)]).any())
 
     def lose(self, panel_ids):
         """Count ``panel_ids`` lost for good."""
@@ -219,6 +233,21 @@ def trailing_s(clock_s, stamp_s, restarted_at_s, start_s, lost):
     unheard = np.where(np.isfinite(restarted_at_s), restarted_at_s, start_s)
     stamps = np.where(np.isfinite(stamp_s), stamp_s, unheard)[~np.asarray(lost)]
     return clock_s - float(stamps.min()) if len(stamps) else 0.0
+
+
+def silence_s(now_s, last_status_s, first_states_s):
+    """Seconds a panel process has been silent on /diagnostics at ``now_s``.
+
+    Counted from ``last_status_s``, its last status there; with none yet (None), from the
+    latest of ``first_states_s``, when each of its panels first reported a state: a process
+    that stops between its panels' first states and its first status is silent too. 0 while
+    neither has happened (a process still starting is not silent). All on one clock [s].
+    """
+    if last_status_s is None:
+        if np.isnan(first_states_s).any():
+            return 0.0
+        last_status_s = float(np.max(first_states_s))
+    return now_s - last_status_s
 
 
 def _number(text):

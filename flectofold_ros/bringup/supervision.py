@@ -128,6 +128,22 @@ class Child:
         self.started_at_s, self.restart_at_s = now_s, None
 
 
+def hangs(silent_s, reported, running_s, hung_s, start_s):
+    """Why a running panel process counts as hung, or '' while it does not [s].
+
+    It hangs when it has been silent on /diagnostics (sent every second) for more than
+    ``hung_s``, or, never having ``reported`` anything (no status, no panel state), when it
+    has been running for more than ``start_s``: a process that hangs while it starts (stopped,
+    deadlocked) would otherwise never count as silent, and its panels, never heard, would hold
+    the day's clock for good.
+    """
+    if silent_s > hung_s:
+        return f'silent for {hung_s:g} s'
+    if not reported and running_s > start_s:
+        return f'no report {start_s:g} s after its start'
+    return ''
+
+
 class Supervisor:
     """Start, watch and restart children; answer what the bringup reports."""
 

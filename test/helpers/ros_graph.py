@@ -15,6 +15,11 @@ from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 
 BIN = Path(sys.executable).parent
+#: Wall seconds within which a process stops, or notices a death, for a test to call it
+#: prompt. On an idle machine they take well under 2 s (the figures the docs quote); this
+#: leaves room for a machine busy with other work, yet tells a stop that heeds its signal
+#: from one that waits out a 10 s escalation or a kill.
+PROMPT_S = 8.0
 
 
 class Graph:

@@ -4,7 +4,7 @@ import math
 
 import numpy as np
 
-from flectofold_ros.bringup.monitor import trailing_s
+from flectofold_ros.bringup.monitor import silence_s, trailing_s
 
 START_S = 1000.0
 NAN = math.nan
@@ -40,3 +40,22 @@ def test_once_heard_a_restarted_panel_trails_by_its_state():
 def test_lost_panels_are_left_out_and_with_none_left_nothing_trails():
     assert lag(1400.0, [1390.0, NAN], lost=(False, True)) == 10.0
     assert lag(1400.0, [NAN, NAN], lost=(True, True)) == 0.0
+
+
+def silence(last_status_s, first_states_s, now_s=100.0):
+    return silence_s(now_s, last_status_s, np.array(first_states_s, dtype=float))
+
+
+def test_a_process_is_silent_from_its_last_status():
+    assert silence(80.0, [10.0, 20.0]) == 20.0
+
+
+def test_before_its_first_status_it_is_silent_from_its_panels_first_states():
+    # The CI failure: stopped after its panels reported, before its first status, it was
+    # never counted as silent, so never killed, and the held clock waited for it for good.
+    assert silence(None, [70.0, 84.0]) == 16.0
+
+
+def test_a_process_still_starting_is_not_silent():
+    assert silence(None, [NAN, NAN]) == 0.0
+    assert silence(None, [70.0, NAN]) == 0.0

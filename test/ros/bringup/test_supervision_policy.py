@@ -11,7 +11,7 @@ import sys
 
 import pytest
 
-from flectofold_ros.bringup.supervision import Death, RestartPolicy, Supervisor
+from flectofold_ros.bringup.supervision import Death, hangs, RestartPolicy, Supervisor
 from flectofold_ros.runner import NO_ROOM
 
 
@@ -125,3 +125,19 @@ def test_restart_limit_is_checked():
 def test_signal_names_in_causes():
     assert Death('x', 1, -signal.SIGKILL, 0.0, None).cause == 'killed by SIGKILL'
     assert Death('x', 1, 1, 0.0, None).cause == 'exit 1'
+
+
+def test_a_process_silent_past_the_bound_hangs_and_at_the_bound_does_not():
+    assert hangs(15.0, True, 100.0, 15.0, 60.0) == ''
+    assert hangs(15.001, True, 100.0, 15.0, 60.0) == 'silent for 15 s'
+
+
+def test_a_process_that_never_reported_hangs_once_it_has_run_past_the_start_wait():
+    # Stopped before its first report, it is never silent (silent_s 0) and its panels,
+    # never heard, would hold the clock for good.
+    assert hangs(0.0, False, 60.0, 15.0, 60.0) == ''
+    assert hangs(0.0, False, 60.001, 15.0, 60.0) == 'no report 60 s after its start'
+
+
+def test_a_process_that_reported_is_judged_by_its_silence_only():
+    assert hangs(1.0, True, 3600.0, 15.0, 60.0) == ''

@@ -8,7 +8,8 @@ about 7,000 s per wall-clock second on this class of machine (4,000 periods of 1
 and each call works its limit of 0.25 s. (At 8,000x, the figure this test used before the
 engine got faster, the process kept up and rightly never said it was overloaded.) It must go
 on publishing its panels' state and diagnostics, report ``overloaded`` with a growing
-``behind_by_s``, and stop within 2 s of a terminal's Ctrl-C (SIGINT to its process group).
+``behind_by_s``, and stop promptly on a terminal's Ctrl-C (SIGINT to its process group;
+well under 2 s here on an idle machine).
 """
 
 import signal
@@ -18,7 +19,7 @@ import time
 from builtin_interfaces.msg import Time
 from diagnostic_msgs.msg import DiagnosticStatus
 import pytest
-from ros_graph import domain_for, Graph
+from ros_graph import domain_for, Graph, PROMPT_S
 from rosgraph_msgs.msg import Clock
 from std_msgs.msg import Float64
 
@@ -105,7 +106,7 @@ def test_it_keeps_publishing_state_and_diagnostics(overloaded):
         assert len(window) >= least, (name, len(window), output[-2000:])
 
 
-def test_it_stops_within_two_seconds_of_a_terminal_ctrl_c(overloaded):
+def test_it_stops_promptly_on_a_terminal_ctrl_c(overloaded):
     _heard, _start, code, stopped_s, output = overloaded
     assert code == 0, output[-2000:]
-    assert stopped_s < 2.0, (stopped_s, output[-2000:])
+    assert stopped_s < PROMPT_S, (stopped_s, output[-2000:])

@@ -11,12 +11,10 @@ import subprocess
 import time
 
 import pytest
-from ros_graph import BIN, domain_for, Graph, signal_group_and_wait
+from ros_graph import BIN, domain_for, Graph, PROMPT_S, signal_group_and_wait
 from rrd_reading import Rrd
 
 pytestmark = pytest.mark.graph
-#: Seconds the bridge may take from the stop signal to its exit.
-STOP_S = 5.0
 #: Entities the bridge logs statically at its start: in every .rrd it finishes.
 STATIC = {'/facade/surface', '/facade/panel_frames', '/facade/panels'}
 
@@ -65,7 +63,7 @@ def stop(bridge, number):
 def assert_clean_stop(bridge, number, rrd_path, before):
     code, output, took_s = stop(bridge, number)
     everything = ''.join(before) + output
-    assert code == 0 and took_s < STOP_S, (code, took_s, everything)
+    assert code == 0 and took_s < PROMPT_S, (code, took_s, everything)
     for word in ('Traceback', 'FATAL', 'KeyboardInterrupt'):
         assert word not in everything, everything
     assert STATIC <= Rrd(rrd_path).entities()
