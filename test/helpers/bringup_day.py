@@ -26,7 +26,8 @@ class Lines:
 
     def __init__(self, process):
         self.lines, self._queue = [], queue.Queue()
-        threading.Thread(target=self._read, args=(process,), daemon=True).start()
+        self._reader = threading.Thread(target=self._read, args=(process,), daemon=True)
+        self._reader.start()
 
     def _read(self, process):
         for line in process.stdout:
@@ -41,6 +42,12 @@ class Lines:
                 if text in self.lines[-1]:
                     return self.lines[-1]
         return None
+
+    def rest(self, graph, timeout_s=30.0):
+        """Once the process has ended, take its output to the end (every holder closed it)."""
+        graph.spin_until(lambda: not self._reader.is_alive(), timeout_s)
+        while not self._queue.empty():
+            self.lines.append(self._queue.get())
 
     @property
     def text(self):

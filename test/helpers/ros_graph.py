@@ -94,8 +94,12 @@ class Graph:
     def spin_for(self, duration_s):
         self.spin_until(lambda: False, duration_s)
 
-    def stop(self, process, sig=signal.SIGINT, timeout_s=10.0):
-        """Signal a process and return its exit code and output."""
+    def stop(self, process, sig=signal.SIGINT, timeout_s=30.0):
+        """Signal a process and return its exit code and output.
+
+        The code is None when it had to be killed after ``timeout_s``, a safety net: a test
+        of promptness bounds the time itself.
+        """
         if process.poll() is None:
             process.send_signal(sig)
         try:

@@ -43,7 +43,7 @@ def test_a_killed_panel_process_is_restarted_and_its_panels_track_again(small_fa
         assert output.wait_for(graph, 'panels reporting 2/4', 30), output.text
         assert output.wait_for(graph, 'day finished', 240), output.text
         bringup.wait(timeout=60)
-        output.wait_for(graph, 'never printed', 2.0)
+        output.rest(graph)
     finally:
         graph.close()
     text = output.text
@@ -70,7 +70,7 @@ def test_panels_lost_for_good_end_the_day_with_exit_code_3(small_facade_file, tm
         assert output.wait_for(graph, 'not restarted', 30), output.text
         assert output.wait_for(graph, '(2 lost)', 30), output.text
         bringup.wait(timeout=240)
-        output.wait_for(graph, 'never printed', 2.0)
+        output.rest(graph)
     finally:
         graph.close()
     text = output.text
@@ -94,7 +94,7 @@ def test_a_killed_recorder_is_restarted_into_a_new_bag_and_the_summary_says_so(
         assert output.wait_for(graph, 'bag_recorder (pid', 30), output.text
         assert output.wait_for(graph, 'day finished', 240), output.text
         bringup.wait(timeout=120)
-        output.wait_for(graph, 'never printed', 2.0)
+        output.rest(graph)
     finally:
         graph.close()
     text = output.text
@@ -120,7 +120,7 @@ def test_a_hung_panel_process_is_killed_and_restarted(small_facade_file):
         assert output.wait_for(graph, 'restarted (pid', 30), output.text
         assert output.wait_for(graph, 'day finished', 240), output.text
         bringup.wait(timeout=60)
-        output.wait_for(graph, 'never printed', 2.0)
+        output.rest(graph)
     finally:
         graph.close()
     text = output.text
@@ -147,7 +147,7 @@ def test_a_panel_process_that_hangs_before_its_first_report_is_killed_and_restar
         assert output.wait_for(graph, 'restarted (pid', 30), output.text
         assert output.wait_for(graph, 'day finished', 240), output.text
         bringup.wait(timeout=60)
-        output.wait_for(graph, 'never printed', 2.0)
+        output.rest(graph)
     finally:
         graph.close()
     text = output.text

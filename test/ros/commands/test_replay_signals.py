@@ -15,13 +15,14 @@ from builtin_interfaces.msg import Time
 import numpy as np
 import pytest
 from rclpy.serialization import serialize_message
-from ros_graph import BIN, domain_for, PROMPT_S, signal_group_and_wait
+from ros_graph import BIN, domain_for, Graph, PROMPT_S, signal_group_and_wait
 from rrd_reading import Rrd
 from sensor_msgs.msg import PointCloud2, PointField
 
 from flectofold_model.actuation import ATMOSPHERIC_PRESSURE_PA
 from flectofold_model.facade.description import DEFAULT_FACADE, load_facade
 from flectofold_ros import contract, panel_states
+from flectofold_ros.interfaces import subscription
 from flectofold_ros.recording.bag_segments import SegmentedBagWriter
 
 pytestmark = pytest.mark.graph
@@ -100,8 +101,8 @@ def test_a_stop_while_rclpy_loads_is_clean(day_bag, number):
 def test_ctrl_c_while_converting_is_clean_and_leaves_a_readable_rrd(day_bag, tmp_path):
     rrd_path = tmp_path / 'day.rrd'
     replay = start_replay(day_bag, '--to-rrd', rrd_path)
-    wait_until(lambda: rrd_path.exists() and rrd_path.stat().st_size > 0)  # converting
-    time.sleep(1.0)
+    # converting: past the static scene (some 40 kB), the meshes of the first states
+    wait_until(lambda: rrd_path.exists() and rrd_path.stat().st_size > 10**6)
     stop(replay, signal.SIGINT, 130)
     rrd = Rrd(rrd_path)
     assert {'/facade/panels', '/metrics/closure'} <= rrd.entities()
@@ -110,9 +111,15 @@ def test_ctrl_c_while_converting_is_clean_and_leaves_a_readable_rrd(day_bag, tmp
 
 @pytest.mark.parametrize('number', [signal.SIGINT, signal.SIGTERM])
 def test_a_stop_while_playing_fast_is_clean(day_bag, number):
-    replay = start_replay(day_bag, '--rate', '200')  # the day's 800 s in 4 s
-    wait_until(lambda: '_rclpy_pybind11' in maps(replay))
-    time.sleep(4.0)  # matched (at most 3 s) and playing
-    output = stop(replay, number, 0)
+    graph = Graph(domain_for(49))  # a listener: the replay's domain
+    try:
+        heard = []
+        subscription(graph.node, contract.PANEL_STATES, heard.append, contract.REPLAY)
+        replay = start_replay(day_bag, '--rate', '200')  # the day's 800 s in 4 s
+        # playing: its first states arrived
+        assert graph.spin_until(lambda: heard or replay.poll() is not None, 60.0)
+        output = stop(replay, number, 0)
+    finally:
+        graph.close()
     published = int(output.split('replay: ')[1].split(' messages')[0])
     assert 0 < published < STATES, output

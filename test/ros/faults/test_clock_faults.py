@@ -64,8 +64,29 @@ class ClockedPanels:
                     setpoint.publish(Float64(data=closure))
             self.graph.spin_for(0.05)
 
+    def run_until(self, condition, closure=None, speed=4.0, timeout_s=60.0):
+        """Run the clock as :meth:`run` until ``condition()`` holds; return whether it did.
+
+        The clock advances per step, not per wall second: a slow machine takes more wall time
+        for the same simulated time, and the panels' states say when they got there.
+        """
+        deadline = time.monotonic() + timeout_s
+        while not condition() and time.monotonic() < deadline:
+            self.run(0.05, closure, speed)
+        return condition()
+
     def newest(self):
         return self.states[-1] if self.states else (None, None)
+
+    def newest_after(self, since_s):
+        """Return the newest state's table if it is stamped after ``since_s``, else None."""
+        stamp_s, table = self.newest()
+        return table if stamp_s is not None and stamp_s > since_s else None
+
+    def all_status(self, word, since_s=0.0):
+        """Whether both panels have status ``word`` in the newest state after ``since_s``."""
+        table = self.newest_after(since_s)
+        return table is not None and status_words(table) == [word] * 2
 
     def check_invariants(self):
         """Every state so far: a documented status and fault, the cushion below its maximum."""
@@ -90,7 +111,9 @@ def test_pauses_and_jumps_of_the_clock_keep_the_panels_safe_and_publishing():
         while not panels.states and time.monotonic() < deadline:
             panels.run(0.5, closure=0.6)
         assert panels.states, 'the panel process never published its state'
-        panels.run(8.0, closure=0.6)  # 32 s simulated: they fill toward 0.6
+        filled_from_s = panels.now_s  # 32 s simulated: they fill toward 0.6
+        assert panels.run_until(lambda: panels.newest_after(filled_from_s + 32.0) is not None,
+                                closure=0.6)
         stamp_s, table = panels.newest()
         assert status_words(table) == ['tracking'] * 2
         assert np.all(table['closure'] > 0.3), table['closure']
@@ -100,29 +123,27 @@ def test_pauses_and_jumps_of_the_clock_keep_the_panels_safe_and_publishing():
         paused_at_s = panels.now_s
         panels.run(3.0, closure=0.6, clock=False)
         assert all(stamp <= paused_at_s + 1e-6 for stamp, _ in panels.states[before:])
-        panels.run(2.0, closure=0.6)
-        stamp_s, table = panels.newest()
-        assert stamp_s > paused_at_s and status_words(table) == ['tracking'] * 2
+        assert panels.run_until(lambda: panels.all_status('tracking', paused_at_s),
+                                closure=0.6), panels.newest()
 
         # three hours forward, no setpoints: the loop simulates the last hour of it (its
         # catch-up limit), the plant holds through the rest; the watchdog vents
         panels.now_s += 3 * 3600.0
-        panels.run(4.0)
-        stamp_s, table = panels.newest()
-        assert stamp_s > paused_at_s + 3 * 3600.0, 'no state on the new time'
+        assert panels.run_until(
+            lambda: panels.all_status('setpoint_timeout', paused_at_s + 3 * 3600.0)
+            and panels.skipped_s > 3600.0), (panels.newest(), panels.skipped_s)
         assert 2 * 3600.0 - 10.0 < panels.skipped_s < 2 * 3600.0 + 10.0, panels.skipped_s
-        assert status_words(table) == ['setpoint_timeout'] * 2
         # setpoints again: tracking again
-        panels.run(4.0, closure=0.5)
-        assert status_words(panels.newest()[1]) == ['tracking'] * 2
+        assert panels.run_until(lambda: panels.all_status('tracking'), closure=0.5), \
+            panels.newest()
 
         # four hours back (a bag replayed in a loop): the loop restarts its clock there
         panels.now_s -= 4 * 3600.0
         back_at_s = panels.now_s
-        panels.run(4.0, closure=0.5)
-        stamp_s, table = panels.newest()
-        assert back_at_s < stamp_s < back_at_s + 60.0, (stamp_s, back_at_s)
-        assert status_words(table) == ['tracking'] * 2
+        # tracking, in states on the new time (within its first minute, not the old time)
+        assert panels.run_until(lambda: panels.newest()[0] < back_at_s + 60.0
+                                and panels.all_status('tracking', back_at_s),
+                                closure=0.5), (panels.newest(), back_at_s)
         panels.check_invariants()
         assert process.poll() is None, 'the panel process died'
         code, output = graph.stop(process)

@@ -53,7 +53,7 @@ def test_written_openings_land_in_the_terminal_registers_and_move_its_plant():
         assert filled[0] > first[0] + 150.0  # 1 s of a wide open fill valve (noise: 20 Pa)
         assert driver.exchanges == 10 and driver.failures == 0
         figures = driver.statistics(PERIOD_S)
-        assert 0.0 < figures['modbus_round_trip_p50_s'] < 0.05, figures
+        assert 0.0 < figures['modbus_round_trip_p50_s'] < UNHURRIED_TIMEOUT_S, figures
         driver.close()
         assert read_registers(terminal.port, 0, 4) == [0, 0, 0, 0]  # closing shuts the valves
     finally:
@@ -80,19 +80,19 @@ def test_a_killed_terminal_latches_comms_lost_and_a_restarted_one_gets_the_safe_
         driver = _driver(port, max_backoff_s=0.4)
         loops = _loops(model, driver)
         loops.set_setpoints([0.8, 0.8])
-        _run(loops, 3.0)
-        assert not driver.comms_lost
+        # some 3 s of exchanges (counted, not timed: a loaded machine stretches them)
+        assert _run(loops, 60.0, lambda: driver.exchanges >= 30 and not driver.comms_lost)
         terminal.kill()
-        assert _run(loops, 2.0, lambda: all(f is Fault.COMMS_LOST for f in loops.fault))
+        assert _run(loops, 20.0, lambda: all(f is Fault.COMMS_LOST for f in loops.fault))
         assert driver.comms_lost and np.all(np.isnan(loops.measured_pa))
         skipped = driver.writes_skipped
-        _run(loops, 1.0)
-        assert driver.writes_skipped > skipped  # nothing is written while the link is down
+        # nothing is written while the link is down
+        assert _run(loops, 20.0, lambda: driver.writes_skipped > skipped)
         # the loop's command is the safe one: fill shut, vent open
         command = loops.controller.last_command
         assert np.all(command.fill_opening == 0.0) and np.all(command.vent_opening == 1.0)
         terminal = Terminal(port=port)
-        assert _run(loops, 5.0, lambda: not driver.comms_lost)
+        assert _run(loops, 30.0, lambda: not driver.comms_lost)
         _run(loops, 0.5)
         # back: the latched fault's vent reaches the terminal, the fill stays shut
         assert read_registers(port, 0, 4) == [0, 10000, 0, 10000]
@@ -157,8 +157,8 @@ def test_an_out_of_range_sensor_count_is_a_dropout_and_that_panel_fills_no_more(
         driver = _driver(terminal.port)
         loops = _loops(model, driver)
         loops.set_setpoints([1.0, 0.5])
-        _run(loops, 2.0, lambda: loops.fault[0] is Fault.SENSOR_DROPOUT)
-        assert loops.fault[0] is Fault.SENSOR_DROPOUT and loops.fault[1] is Fault.NONE
+        assert _run(loops, 20.0, lambda: loops.fault[0] is Fault.SENSOR_DROPOUT)
+        assert loops.fault[1] is Fault.NONE
         assert not driver.comms_lost and math.isnan(driver.read_pressure_pa()[0])
         _run(loops, 0.3)
         fill, vent = read_registers(terminal.port, 0, 2)

@@ -42,20 +42,25 @@ def test_every_panel_is_reported_once_a_period_in_slices(plane_facade):
     assert len(ids) > STATUSES_PER_MESSAGE
     graph = Graph(domain_for(33))
     messages = []  # (arrival, hardware ids of the message's statuses)
+    slices = -(-len(ids) // STATUSES_PER_MESSAGE)  # messages a period
     try:
         process = graph.start('panel_group', '--group', '0/1', '--facade', str(plane_facade))
         subscription(graph.node, contract.DIAGNOSTICS, lambda message: messages.append(
             (time.monotonic(), [status.hardware_id for status in message.status])))
         assert graph.spin_until(lambda: any('panel_group_0' in ids_ for _, ids_ in messages),
                                 60.0), graph.stop(process)[1]
-        start = next(t for t, ids_ in messages if 'panel_group_0' in ids_)
-        graph.spin_until(lambda: messages[-1][0] >= start + PERIODS, PERIODS + 5.0)
+        first = next(i for i, (_, ids_) in enumerate(messages) if 'panel_group_0' in ids_)
+        # whole periods from the first process status, whenever they arrive
+        assert graph.spin_until(lambda: len(messages) >= first + PERIODS * slices, 60.0), \
+            (len(messages), first)
         code, output = graph.stop(process)
     finally:
         graph.close()
     assert code == 0, output
-    # whole periods from the first process status: each starts with the first slice
-    window = [ids_ for t, ids_ in messages if start <= t < start + PERIODS - 0.05]
+    window = [ids_ for _, ids_ in messages[first:first + PERIODS * slices]]
+    # each period starts with the first slice, which carries the process status
+    assert ['panel_group_0' in ids_ for ids_ in window] == [True, *[False] * (slices - 1)] * \
+        PERIODS, window
     assert max(len(ids_) for ids_ in window) <= STATUSES_PER_MESSAGE + 1
     counts = Counter(hardware_id for ids_ in window for hardware_id in ids_)
     assert counts['panel_group_0'] == PERIODS

@@ -9,6 +9,7 @@ import time
 
 import numpy as np
 import pytest
+from rclpy.qos import DurabilityPolicy
 from ros_graph import domain_for, Graph
 from sensor_msgs.msg import PointCloud2, PointField
 
@@ -135,7 +136,10 @@ def test_the_node_publishes_latched_markers_in_the_site_frame(small_facade_text,
         # facade within full_period_s
         late = []
         subscription(graph.node, contract.MARKERS, late.append)
-        assert graph.spin_until(lambda: late, 1.0)
+        assert graph.spin_until(lambda: late, 30.0)
+        offered = graph.node.get_publishers_info_by_topic(contract.MARKERS.name)
+        assert [info.qos_profile.durability for info in offered] == \
+            [DurabilityPolicy.TRANSIENT_LOCAL]  # latched: the last message to a late display
 
         def whole():
             return {m.ns for array in late for m in array.markers} >= {'panels', 'surface',

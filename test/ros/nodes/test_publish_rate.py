@@ -28,7 +28,11 @@ def _stamp_s(message):
 
 @pytest.fixture(scope='module')
 def heard():
-    """Two panel groups in real time: at rest, then one panel moved; everything they said."""
+    """Two panel groups in real time: at rest, then one panel moved; everything they said.
+
+    The windows are of the processes' clock (the wall clock: their stamps), not of arrival: a
+    loaded machine delays messages, not the instants they carry.
+    """
     graph = Graph(domain_for(20))
     panel_topic = {}   # panel -> [(arrival, stamp)] of its own joint_states
     clouds = {name: [] for name in PROCESSES}   # process -> [(arrival, stamp, table)]
@@ -56,13 +60,16 @@ def heard():
         assert graph.spin_until(lambda: all(len(c) >= 2 for c in clouds.values()), 60.0), \
             [graph.stop(p)[1] for p in processes]
         graph.spin_for(2.0)  # the first states of every panel go out at once: let them pass
-        rest_started = time.monotonic()
+        rest_started = time.time()
         graph.spin_for(REST_S)
-        moving_started = time.monotonic()
+        moving_started = time.time()
         deadline = moving_started + 6.0
-        while time.monotonic() < deadline:
+        while time.time() < deadline:
             command.publish(Float64(data=0.9))
             graph.spin_for(0.5)
+        # every state stamped in the windows has been sent: wait for those that are late
+        assert graph.spin_until(lambda: all(c[-1][1] >= deadline for c in clouds.values()),
+                                30.0)
         for process in processes:
             code, output = graph.stop(process)
             assert code == 0, output
@@ -73,8 +80,9 @@ def heard():
 
 
 def _within(pairs, window):
+    """Return the ``(arrival, stamp)`` pairs stamped inside ``window``."""
     start, end = window
-    return [(arrival, stamp) for arrival, stamp in pairs if start <= arrival < end]
+    return [(arrival, stamp) for arrival, stamp in pairs if start <= stamp < end]
 
 
 @pytest.mark.parametrize('name', sorted(PROCESSES))
@@ -83,7 +91,7 @@ def test_panel_states_carry_every_state_at_the_asked_rate(heard, name):
     clouds = heard['clouds'][name]
     stamps = np.array([stamp for _, stamp, _ in clouds[1:]])  # the first: as soon as it runs
     np.testing.assert_allclose(np.diff(stamps), 1.0 / rate, atol=1e-3)
-    rest = [c for c in clouds if heard['rest'][0] <= c[0] < heard['rest'][1]]
+    rest = [c for c in clouds if heard['rest'][0] <= c[1] < heard['rest'][1]]
     assert abs(len(rest) - rate * REST_S) <= 1 + 0.02 * rate * REST_S
     assert all(panel_states.panel_ids(table) == panels for _, _, table in clouds)
 
@@ -101,12 +109,13 @@ def test_at_rest_a_panel_publishes_its_own_state_at_the_heartbeat(heard, panel_i
     _, rate, heartbeat = PROCESSES[name]
     pairs = _within(heard['panel'][panel_id], heard['rest'])
     stamps = np.array([stamp for _, stamp in pairs])
-    assert abs(len(pairs) - REST_S / heartbeat) <= 1, (len(pairs), REST_S / heartbeat)
-    # never sooner than the heartbeat; a late tick sends the heartbeat with its newest state
+    # A tick late by a few hundred ms (a loaded machine) sends the heartbeat with its newest
+    # state: that gap is longer, and the window holds one fewer. Never sooner than the
+    # heartbeat, and never twice as long; mostly exactly the heartbeat.
+    assert -2 <= len(pairs) - REST_S / heartbeat <= 1, (len(pairs), REST_S / heartbeat)
     gaps = np.diff(stamps)
-    assert np.all(gaps >= heartbeat - 1e-3) and np.all(gaps <= heartbeat + 2.0 / rate + 1e-3), \
-        gaps
-    assert np.count_nonzero(np.abs(gaps - heartbeat) > 1e-3) <= 2, gaps
+    assert np.all(gaps >= heartbeat - 1e-3) and np.all(gaps < 2.0 * heartbeat - 1e-3), gaps
+    assert np.median(gaps) == pytest.approx(heartbeat, abs=1e-3), gaps
 
 
 def test_a_moving_panel_publishes_every_state_and_the_others_keep_the_heartbeat(heard):
@@ -117,8 +126,8 @@ def test_a_moving_panel_publishes_every_state_and_the_others_keep_the_heartbeat(
     assert np.median(np.diff(stamps)) == pytest.approx(1.0 / rate, abs=1e-3)
     still = _within(heard['panel']['r01c00'], heard['moving'])
     assert len(still) <= 6.0 / heartbeat + 1
-    cloud = [table for arrival, _, table in heard['clouds']['fast']
-             if arrival >= heard['moving'][0]]
+    cloud = [table for _, stamp, table in heard['clouds']['fast']
+             if stamp >= heard['moving'][0]]
     index = ['r01c00', 'r01c01', 'r01c02'].index(MOVING)
     assert cloud[-1]['closure'][index] > 0.3 and cloud[-1]['setpoint'][index] == \
         pytest.approx(0.9)

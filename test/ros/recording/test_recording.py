@@ -208,7 +208,7 @@ def test_replay_plays_the_bag_onto_the_graph(recorded_day, graph):
     process = graph.start('replay', str(run / 'bag'), '--rate', '1000',
                           '--topics', states.name, contract.CLOCK.name)
     graph.spin_until(lambda: process.poll() is not None, 60.0)
-    graph.spin_for(0.5)
+    graph.spin_until(lambda: len(received) >= len(expected), 30.0)
     code, output = graph.stop(process)
     assert code == 0, output
     assert received == expected

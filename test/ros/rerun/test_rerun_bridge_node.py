@@ -13,7 +13,7 @@ from flectofold_model.actuation import ATMOSPHERIC_PRESSURE_PA
 from flectofold_model.facade.description import DEFAULT_FACADE, load_facade
 from flectofold_model.kinematics.mesh import fold_mesh
 from flectofold_ros import contract, panel_states
-from flectofold_ros.interfaces import publisher
+from flectofold_ros.interfaces import publisher, subscription
 from flectofold_ros.rerun.scene import FacadeScene
 
 pytestmark = pytest.mark.graph
@@ -52,6 +52,14 @@ def test_the_bridge_logs_published_panel_states(tmp_path):
                              '-p', 'flush_period_s:=0.05')
         states = publisher(graph.node, contract.PANEL_STATES)
         sun = publisher(graph.node, contract.SUN)
+        figures = {}  # the bridge's latest /diagnostics figures
+
+        def on_diagnostics(message):
+            for status in message.status:
+                if status.hardware_id == contract.RERUN_BRIDGE_NODE:
+                    figures.update((item.key, int(float(item.value))) for item in status.values
+                                   if item.key in ('states_taken', 'rejected'))
+        subscription(graph.node, contract.DIAGNOSTICS, on_diagnostics)
         assert graph.spin_until(lambda: states.get_subscription_count() >= 1
                                 and sun.get_subscription_count() >= 1, 60.0), \
             'the bridge never subscribed'
@@ -69,7 +77,9 @@ def test_the_bridge_logs_published_panel_states(tmp_path):
         foreign = PointCloud2(height=1, width=1, point_step=4, row_step=4, data=bytes(4),
                               fields=[PointField(name='x', offset=0, datatype=7, count=1)])
         states.publish(foreign)
-        graph.spin_for(1.0)
+        # the bridge took every state and refused the foreign cloud
+        assert graph.spin_until(lambda: figures.get('states_taken', 0) >= 3 * count and
+                                figures.get('rejected', 0) >= 1, 30.0), figures
         code, output = graph.stop(bridge)
     finally:
         graph.close()
