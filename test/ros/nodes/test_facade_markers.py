@@ -9,7 +9,6 @@ import time
 
 import numpy as np
 import pytest
-from rclpy.qos import DurabilityPolicy
 from ros_graph import domain_for, Graph
 from sensor_msgs.msg import PointCloud2, PointField
 
@@ -17,7 +16,7 @@ from flectofold_model.facade import DEFAULT_FACADE, load_facade
 from flectofold_model.kinematics.kinds import fold_model_of
 from flectofold_model.kinematics.mesh import fold_mesh
 from flectofold_ros import colours, contract, panel_states
-from flectofold_ros.interfaces import publisher, subscription
+from flectofold_ros.interfaces import publisher, qos_profile, subscription
 from flectofold_ros.markers import FacadeMarkers
 
 pytestmark = pytest.mark.graph
@@ -138,8 +137,9 @@ def test_the_node_publishes_latched_markers_in_the_site_frame(small_facade_text,
         subscription(graph.node, contract.MARKERS, late.append)
         assert graph.spin_until(lambda: late, 30.0)
         offered = graph.node.get_publishers_info_by_topic(contract.MARKERS.name)
+        assert contract.MARKERS.qos.latched  # the last message to a late display
         assert [info.qos_profile.durability for info in offered] == \
-            [DurabilityPolicy.TRANSIENT_LOCAL]  # latched: the last message to a late display
+            [qos_profile(contract.MARKERS.qos).durability]
 
         def whole():
             return {m.ns for array in late for m in array.markers} >= {'panels', 'surface',
