@@ -154,8 +154,13 @@ class Presence:
                 self._on_graph.discard(other.nodes[0])
 
     def who(self, node_name):
-        """Name a node with its host and process when another instance announced it."""
-        return presence.who(node_name, self.others.values())
+        """Name a node with its host and process when an instance announced it, this one too.
+
+        This process's own nodes (a bringup's coordinator) are named from ``own`` once
+        announced: its own announcement is never among ``others``.
+        """
+        own = [self.own] if self._announced else []
+        return presence.who(node_name, [*own, *self.others.values()])
 
 
 class StartCheck:
