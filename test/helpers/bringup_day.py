@@ -54,10 +54,22 @@ class Lines:
         return ''.join(self.lines)
 
 
-def start_day(graph, facade_file, end, *options):
-    """Start ``facade`` from 11:00 to ``end`` at 120x; return it and its output once all report."""
+def begin_day(graph, facade_file, end, *options):
+    """Start ``facade`` from 11:00 to ``end`` at 120x; return it and its output at once."""
     bringup = graph.start('facade', '--facade', str(facade_file), '--start', '11:00', '--end',
                           end, '--speedup', '120', '--progress-period', '1', *options)
-    output = Lines(bringup)
+    return bringup, Lines(bringup)
+
+
+def start_day(graph, facade_file, end, *options):
+    """Start ``facade`` as :func:`begin_day`; return it and its output once all report."""
+    bringup, output = begin_day(graph, facade_file, end, *options)
     assert output.wait_for(graph, '| panels reporting 4/4', 180), output.text
     return bringup, output
+
+
+def end_day(graph, bringup, output, exit_timeout_s):
+    """Wait for the day to finish, the bringup to exit and the rest of its output."""
+    assert output.wait_for(graph, 'day finished', 240), output.text
+    bringup.wait(timeout=exit_timeout_s)
+    output.rest(graph)

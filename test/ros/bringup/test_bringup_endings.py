@@ -10,7 +10,7 @@ import signal
 import subprocess
 import time
 
-from bringup_day import start_day, supervised_facade_file
+from bringup_day import end_day, start_day, supervised_facade_file
 from process_state import running
 import pytest
 from ros_graph import domain_for, Graph
@@ -79,9 +79,7 @@ def test_a_recorder_whose_disk_is_full_is_not_restarted_and_the_summary_says_wha
         bringup, output = start_day(graph, small_facade_file, '11:40', '--panel-processes', '1',
                                     '--record', '--out', str(full_disk))
         assert output.wait_for(graph, 'not restarted: its disk has no room', 120), output.text
-        assert output.wait_for(graph, 'day finished', 240), output.text
-        bringup.wait(timeout=120)
-        output.rest(graph)
+        end_day(graph, bringup, output, 120)
     finally:
         graph.close()
     text = output.text

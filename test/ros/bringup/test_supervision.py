@@ -9,7 +9,8 @@ good and the bringup exits 3.
 import subprocess
 import time
 
-from bringup_day import Lines, panel_processes_of, start_day, supervised_facade_file
+from bringup_day import (begin_day, end_day, panel_processes_of, start_day,
+                         supervised_facade_file)
 import pytest
 from ros_graph import domain_for, Graph, PROMPT_S
 
@@ -41,9 +42,7 @@ def test_a_killed_panel_process_is_restarted_and_its_panels_track_again(small_fa
         assert time.monotonic() - signal_sent < PROMPT_S  # noticed at once, not at a timeout
         assert output.wait_for(graph, 'restarted (pid', 30), output.text
         assert output.wait_for(graph, 'panels reporting 2/4', 30), output.text
-        assert output.wait_for(graph, 'day finished', 240), output.text
-        bringup.wait(timeout=60)
-        output.rest(graph)
+        end_day(graph, bringup, output, 60)
     finally:
         graph.close()
     text = output.text
@@ -92,9 +91,7 @@ def test_a_killed_recorder_is_restarted_into_a_new_bag_and_the_summary_says_so(
                                  capture_output=True, text=True).stdout.split()
         subprocess.run(['kill', '-KILL', listing[0]], check=True)
         assert output.wait_for(graph, 'bag_recorder (pid', 30), output.text
-        assert output.wait_for(graph, 'day finished', 240), output.text
-        bringup.wait(timeout=120)
-        output.rest(graph)
+        end_day(graph, bringup, output, 120)
     finally:
         graph.close()
     text = output.text
@@ -118,9 +115,7 @@ def test_a_hung_panel_process_is_killed_and_restarted(small_facade_file):
         assert hung and f'(pid {victim})' in hung, output.text
         assert time.monotonic() - stopped >= HUNG_S - 2.0  # its last report came up to 1 s before
         assert output.wait_for(graph, 'restarted (pid', 30), output.text
-        assert output.wait_for(graph, 'day finished', 240), output.text
-        bringup.wait(timeout=60)
-        output.rest(graph)
+        end_day(graph, bringup, output, 60)
     finally:
         graph.close()
     text = output.text
@@ -134,10 +129,7 @@ def test_a_panel_process_that_hangs_before_its_first_report_is_killed_and_restar
     """SIGSTOP at its start: never silent, as it never spoke; 60 s after its start it is hung."""
     graph = Graph(domain_for(57))
     try:
-        bringup = graph.start('facade', '--facade', str(small_facade_file), '--start', '11:00',
-                              '--end', '11:20', '--speedup', '120', '--progress-period', '1',
-                              '--panel-processes', '2')
-        output = Lines(bringup)
+        bringup, output = begin_day(graph, small_facade_file, '11:20', '--panel-processes', '2')
         assert graph.spin_until(lambda: panel_processes_of(bringup.pid), 60.0), output.text
         victim = panel_processes_of(bringup.pid)[0]
         subprocess.run(['kill', '-STOP', str(victim)], check=True)
@@ -145,9 +137,7 @@ def test_a_panel_process_that_hangs_before_its_first_report_is_killed_and_restar
         hung = output.wait_for(graph, 'hung (no report 60 s after its start), killed', 60)
         assert hung and f'(pid {victim})' in hung, output.text
         assert output.wait_for(graph, 'restarted (pid', 30), output.text
-        assert output.wait_for(graph, 'day finished', 240), output.text
-        bringup.wait(timeout=60)
-        output.rest(graph)
+        end_day(graph, bringup, output, 60)
     finally:
         graph.close()
     text = output.text
