@@ -12,7 +12,7 @@ not positive definite beyond a limit point).
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.sparse import coo_matrix, csc_matrix, identity
+from scipy.sparse import csc_matrix, identity
 from scipy.sparse.linalg import splu
 
 from flectofold_model.structure import elements
@@ -181,8 +181,11 @@ class SheetSystem:
         rows = np.concatenate([g.rows for g in self._groups])
         cols = np.concatenate([g.cols for g in self._groups])
         size = len(self.free)
-        unique, self._slot = np.unique(rows * size + cols, return_inverse=True)
-        self._rows, self._cols = unique // size, unique % size
+        # Sorted column by column, the distinct entries are the CSC layout of the tangent.
+        unique, self._slot = np.unique(cols * size + rows, return_inverse=True)
+        self._indices = unique % size
+        self._indptr = np.concatenate([[0], np.cumsum(np.bincount(unique // size,
+                                                                  minlength=size))])
         self._size = size
         self.extent_m = float(np.ptp(sheet.reference_xy_m, axis=0).max())
 
@@ -267,11 +270,10 @@ class SheetSystem:
             else:
                 local = group.hessian(unknowns[group.dofs])
             scale = 1.0 if group.strain else -pressure_pa
-            parts.append(scale * local[:, group.local_rows, group.local_cols][group.keep])
+            parts.append(scale * local.reshape(len(local), group.keep.shape[1])[group.keep])
         data = np.bincount(self._slot, weights=np.concatenate(parts),
-                           minlength=len(self._rows))
-        return csc_matrix(coo_matrix((data, (self._rows, self._cols)),
-                                     shape=(self._size, self._size)))
+                           minlength=len(self._indices))
+        return csc_matrix((data, self._indices, self._indptr), shape=(self._size, self._size))
 
 
 def factorise(matrix):
@@ -342,11 +344,10 @@ class _Group:
         self.hessian = hessian
         self.strain = bool(strain)
         per = dofs.shape[1]
+        # A local Hessian's entries row by row: row k // per, column k % per.
         local = np.arange(per)
-        self.local_rows = np.repeat(local, per)
-        self.local_cols = np.tile(local, per)
-        rows = reduced[dofs[:, self.local_rows]]
-        cols = reduced[dofs[:, self.local_cols]]
+        rows = reduced[dofs[:, np.repeat(local, per)]]
+        cols = reduced[dofs[:, np.tile(local, per)]]
         self.keep = (rows >= 0) & (cols >= 0)
         self.rows, self.cols = rows[self.keep], cols[self.keep]
 

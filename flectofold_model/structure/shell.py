@@ -29,7 +29,7 @@ form is measured from the moulded one, on the flat reference metric.
 
 import numpy as np
 
-from flectofold_model.structure import elements
+from flectofold_model.structure import elements, kernels
 
 
 class MidEdgeBending:
@@ -44,7 +44,7 @@ class MidEdgeBending:
                  rest_sine=None):
         faces = np.asarray(faces, dtype=np.int64)
         self.rest_sine = (np.zeros(faces.shape) if rest_sine is None
-                          else np.asarray(rest_sine, dtype=np.float64))
+                          else np.ascontiguousarray(rest_sine, dtype=np.float64))
         self.faces = faces
         count = len(faces)
         opposite_start = faces[:, [1, 2, 0]]
@@ -88,18 +88,14 @@ class MidEdgeBending:
         return np.einsum('mi,mij,mj->m', sine, self.quadratic, sine)
 
     def local_gradient(self, local):
-        """Gradient of :meth:`local_energy` with respect to the local unknowns ``(m, 21)``."""
-        beta, angle_gradient, _ = self._tilts(local)
-        sine = np.sin(beta) - self.rest_sine
-        d_beta = 2.0 * np.einsum('mij,mj->mi', self.quadratic, sine) * np.cos(beta)
-        gradient = np.zeros_like(local)
-        positions = gradient[:, :18].reshape(-1, 6, 3)
-        for i in range(3):
-            slots = [(i + 1) % 3, (i + 2) % 3, i, 3 + i]
-            for slot, part in zip(slots, range(4)):
-                positions[:, slot] += (0.5 * d_beta[:, i])[:, None] * angle_gradient[i][:, part]
-        gradient[:, 18:] = d_beta * self.side
-        return gradient
+        """Gradient of :meth:`local_energy` with respect to the local unknowns ``(m, 21)``.
+
+        Compiled (:func:`.kernels.bending_gradient`): ``2 M s`` times ``cos(beta)`` times the
+        tilts' gradients, half the dihedral angle's on an interior edge plus ``sigma`` on the
+        edge's rotation.
+        """
+        return kernels.bending_gradient(np.ascontiguousarray(local), self.interior, self.side,
+                                        self.quadratic, self.rest_sine)
 
     def local_hessian(self, local):
         """Hessian of :meth:`local_energy` ``(m, 21, 21)``.
@@ -107,36 +103,12 @@ class MidEdgeBending:
         ``E = s^T M s`` with ``s = sin(beta) - sin(beta0)``: the chain rule gives
         ``2 ds^T M ds + sum_i mu_i (cos(beta_i) d2beta_i - sin(beta_i) dbeta_i dbeta_i^T)``,
         ``mu = 2 M s``; the dihedral angles' own second derivatives ``d2beta_i`` (half the
-        dihedral's) are central differences of their closed-form gradients.
+        dihedral's) are central differences of their closed-form gradients with the step
+        :data:`~.elements.HESSIAN_STEP_M`. Compiled (:func:`.kernels.bending_hessian`).
         """
-        beta, angle_gradient, _ = self._tilts(local)
-        sine = np.sin(beta) - self.rest_sine
-        moment = 2.0 * np.einsum('mij,mj->mi', self.quadratic, sine)
-        count = len(local)
-        d_beta = np.zeros((count, 3, 21))
-        slots = []
-        for i in range(3):
-            columns = np.concatenate([np.arange(3 * slot, 3 * slot + 3)
-                                      for slot in ((i + 1) % 3, (i + 2) % 3, i, 3 + i)])
-            slots.append(columns)
-            d_beta[:, i, columns] = 0.5 * angle_gradient[i].reshape(count, 12)
-            d_beta[:, i, 18 + i] = self.side[:, i]
-        d_sine = np.cos(beta)[:, :, None] * d_beta
-        hessian = 2.0 * np.einsum('mia,mij,mjb->mab', d_sine, self.quadratic, d_sine)
-        hessian -= np.einsum('mi,mia,mib->mab', moment * np.sin(beta), d_beta, d_beta)
-        corners = local[:, :18].reshape(-1, 6, 3)
-        weight = 0.5 * moment * np.cos(beta)
-        for i in range(3):
-            mask = self.interior[:, i]
-            if not np.any(mask):
-                continue
-            hinge = corners[mask][:, [(i + 1) % 3, (i + 2) % 3, i, 3 + i]].reshape(-1, 12)
-            second = elements.finite_difference_hessian(
-                lambda flat: elements.dihedral_gradient(flat.reshape(-1, 4, 3)).reshape(-1, 12),
-                hinge)
-            block = np.ix_(np.flatnonzero(mask), slots[i], slots[i])
-            hessian[block] += weight[mask, i][:, None, None] * second
-        return hessian
+        return kernels.bending_hessian(np.ascontiguousarray(local), self.interior, self.side,
+                                       self.quadratic, self.rest_sine,
+                                       elements.HESSIAN_STEP_M).reshape(len(local), 21, 21)
 
     def _tilts(self, local):
         corners = local[:, :18].reshape(-1, 6, 3)

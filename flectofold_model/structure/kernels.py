@@ -1,0 +1,195 @@
+"""Compiled element kernels of the structural sheet: the mid-edge bending gradient and Hessian.
+
+The same rules as :mod:`.shell` and :mod:`.elements` (the mid-edge plate energy
+``s^T M s`` with ``s = sin(beta) - sin(beta0)`` per face; the signed dihedral angle and its
+closed-form gradient of Bridson, Marino & Fedkiw, SCA 2003; the dihedral angle's own second
+derivatives as central differences of that gradient with the step
+:data:`~.elements.HESSIAN_STEP_M`, symmetrised), written as loops over the faces and
+compiled, so that no ``(m, 21, 21)`` temporaries or per-hinge Python calls are made. The
+vectorised numpy forms in :mod:`.shell` stay as the reference the tests hold these to.
+
+A face's local unknowns are 21: its three corners, the three wings across its edges (the far
+corner of the neighbouring face; a boundary edge repeats the opposite corner), 18
+coordinates, then the three edge rotations. Edge ``i`` of a face is the hinge
+``(corner i+1, corner i+2, corner i, wing i)``.
+"""
+
+import math
+
+import numpy as np
+
+from flectofold_model._compiled import inline_kernel, kernel
+
+
+@inline_kernel
+def _dihedral(x, slots, out_gradient):
+    """Signed dihedral angle of the hinge at ``slots`` of ``x`` (18 coordinates) [rad].
+
+    Writes its gradient, 12 values in the order of ``slots``, into ``out_gradient``.
+    """
+    p0 = 3 * slots[0]
+    p1 = 3 * slots[1]
+    p2 = 3 * slots[2]
+    p3 = 3 * slots[3]
+    ex = x[p1] - x[p0]
+    ey = x[p1 + 1] - x[p0 + 1]
+    ez = x[p1 + 2] - x[p0 + 2]
+    ax = x[p2] - x[p0]
+    ay = x[p2 + 1] - x[p0 + 1]
+    az = x[p2 + 2] - x[p0 + 2]
+    bx = x[p3] - x[p0]
+    by = x[p3 + 1] - x[p0 + 1]
+    bz = x[p3 + 2] - x[p0 + 2]
+    # normal_a = edge x a, normal_b = b x edge
+    nax = ey * az - ez * ay
+    nay = ez * ax - ex * az
+    naz = ex * ay - ey * ax
+    nbx = by * ez - bz * ey
+    nby = bz * ex - bx * ez
+    nbz = bx * ey - by * ex
+    length_sq = ex * ex + ey * ey + ez * ez
+    length = math.sqrt(length_sq)
+    cx = nay * nbz - naz * nby
+    cy = naz * nbx - nax * nbz
+    cz = nax * nby - nay * nbx
+    sine = (cx * ex + cy * ey + cz * ez) / length
+    cosine = nax * nbx + nay * nby + naz * nbz
+    wa = length / (nax * nax + nay * nay + naz * naz)
+    wb = length / (nbx * nbx + nby * nby + nbz * nbz)
+    along_a = (ax * ex + ay * ey + az * ez) / length_sq
+    along_b = (bx * ex + by * ey + bz * ez) / length_sq
+    out_gradient[6] = -wa * nax
+    out_gradient[7] = -wa * nay
+    out_gradient[8] = -wa * naz
+    out_gradient[9] = -wb * nbx
+    out_gradient[10] = -wb * nby
+    out_gradient[11] = -wb * nbz
+    out_gradient[0] = (1.0 - along_a) * wa * nax + (1.0 - along_b) * wb * nbx
+    out_gradient[1] = (1.0 - along_a) * wa * nay + (1.0 - along_b) * wb * nby
+    out_gradient[2] = (1.0 - along_a) * wa * naz + (1.0 - along_b) * wb * nbz
+    out_gradient[3] = along_a * wa * nax + along_b * wb * nbx
+    out_gradient[4] = along_a * wa * nay + along_b * wb * nby
+    out_gradient[5] = along_a * wa * naz + along_b * wb * nbz
+    return math.atan2(sine, cosine)
+
+
+@inline_kernel
+def _hinge_slots(edge, slots):
+    slots[0] = (edge + 1) % 3
+    slots[1] = (edge + 2) % 3
+    slots[2] = edge
+    slots[3] = 3 + edge
+
+
+@inline_kernel
+def _tilts(x, interior, side, beta, d_beta, slots, gradient):
+    """Tilts ``beta`` (3) and their gradients ``d_beta`` (3, 21) of one face's unknowns."""
+    for i in range(3):
+        for k in range(21):
+            d_beta[i, k] = 0.0
+        angle = 0.0
+        if interior[i]:
+            _hinge_slots(i, slots)
+            angle = _dihedral(x, slots, gradient)
+            for part in range(4):
+                for c in range(3):
+                    d_beta[i, 3 * slots[part] + c] = 0.5 * gradient[3 * part + c]
+        d_beta[i, 18 + i] = side[i]
+        beta[i] = 0.5 * angle + side[i] * x[18 + i]
+
+
+@kernel
+def bending_gradient(local, interior, side, quadratic, rest_sine):
+    """Gradient of the mid-edge bending energy per face ``(m, 21)`` of ``local`` ``(m, 21)``."""
+    count = local.shape[0]
+    out = np.zeros((count, 21))
+    beta = np.empty(3)
+    d_beta = np.empty((3, 21))
+    slots = np.empty(4, dtype=np.int64)
+    gradient = np.empty(12)
+    for f in range(count):
+        x = local[f]
+        _tilts(x, interior[f], side[f], beta, d_beta, slots, gradient)
+        for i in range(3):
+            moment = 0.0
+            for j in range(3):
+                moment += 2.0 * quadratic[f, i, j] * (math.sin(beta[j]) - rest_sine[f, j])
+            weight = moment * math.cos(beta[i])
+            for k in range(21):
+                out[f, k] += weight * d_beta[i, k]
+    return out
+
+
+@kernel
+def bending_hessian(local, interior, side, quadratic, rest_sine, step):
+    """Hessian of the mid-edge bending energy per face ``(m, 21 * 21)``, row by row.
+
+    ``2 ds^T M ds + sum_i mu_i (cos(beta_i) d2beta_i - sin(beta_i) dbeta_i dbeta_i^T)``,
+    ``mu = 2 M s``; ``d2beta_i`` is half the dihedral angle's second derivatives, central
+    differences of its gradient with ``step`` [m], symmetrised.
+    """
+    count = local.shape[0]
+    out = np.zeros((count, 21 * 21))
+    beta = np.empty(3)
+    d_beta = np.empty((3, 21))
+    d_sine = np.empty((3, 21))
+    moment = np.empty(3)
+    slots = np.empty(4, dtype=np.int64)
+    gradient = np.empty(12)
+    plus = np.empty(12)
+    minus = np.empty(12)
+    second = np.empty((12, 12))
+    probe = np.empty(21)
+    for f in range(count):
+        x = local[f]
+        _tilts(x, interior[f], side[f], beta, d_beta, slots, gradient)
+        for i in range(3):
+            cosine = math.cos(beta[i])
+            for k in range(21):
+                d_sine[i, k] = cosine * d_beta[i, k]
+        for i in range(3):
+            total = 0.0
+            for j in range(3):
+                total += 2.0 * quadratic[f, i, j] * (math.sin(beta[j]) - rest_sine[f, j])
+            moment[i] = total
+        h = out[f]
+        for i in range(3):
+            for j in range(3):
+                weight = 2.0 * quadratic[f, i, j]
+                if weight == 0.0:
+                    continue
+                for a in range(21):
+                    da = weight * d_sine[i, a]
+                    if da == 0.0:
+                        continue
+                    for b in range(21):
+                        h[21 * a + b] += da * d_sine[j, b]
+            curvature = moment[i] * math.sin(beta[i])
+            for a in range(21):
+                da = curvature * d_beta[i, a]
+                if da == 0.0:
+                    continue
+                for b in range(21):
+                    h[21 * a + b] -= da * d_beta[i, b]
+        for i in range(3):
+            if not interior[f, i]:
+                continue
+            weight = 0.5 * moment[i] * math.cos(beta[i])
+            _hinge_slots(i, slots)
+            for k in range(21):
+                probe[k] = x[k]
+            for column in range(12):
+                index = 3 * slots[column // 3] + column % 3
+                probe[index] = x[index] + step
+                _dihedral(probe, slots, plus)
+                probe[index] = x[index] - step
+                _dihedral(probe, slots, minus)
+                probe[index] = x[index]
+                for row in range(12):
+                    second[row, column] = (plus[row] - minus[row]) / (2.0 * step)
+            for row in range(12):
+                a = 3 * slots[row // 3] + row % 3
+                for column in range(12):
+                    b = 3 * slots[column // 3] + column % 3
+                    h[21 * a + b] += weight * 0.5 * (second[row, column] + second[column, row])
+    return out
