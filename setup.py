@@ -1,11 +1,29 @@
 """ament_python build of flectofold_ros: the ROS nodes and the flectofold_model library."""
 
+import ast
 from glob import glob
 import os
 
 from setuptools import find_packages, setup
 
 PACKAGE = 'flectofold_ros'
+
+
+def console_scripts(path=os.path.join(PACKAGE, 'executables.py')):
+    """Return ``NAME = flectofold_ros.executables:NAME`` for each executable of ``EXECUTABLES``.
+
+    ``flectofold_ros.executables.EXECUTABLES`` is the one list of the executables; it is read
+    from the source as a literal, since building must not import the package.
+    """
+    with open(path, encoding='utf-8') as source:
+        tree = ast.parse(source.read(), path)
+    for statement in tree.body:
+        if isinstance(statement, ast.Assign) and \
+                [getattr(target, 'id', None) for target in statement.targets] == ['EXECUTABLES']:
+            return [f'{name} = {PACKAGE}.executables:{name}'
+                    for name in ast.literal_eval(statement.value)]
+    raise SystemExit(f'setup.py: {path} assigns no EXECUTABLES literal')
+
 
 setup(
     name=PACKAGE,
@@ -32,26 +50,5 @@ setup(
     extras_require={'test': ['pytest']},
     # Every executable starts through flectofold_ros.executables, which takes over the stop
     # signals before the heavy imports (see flectofold_ros/runner.py).
-    entry_points={
-        'console_scripts': [
-            'fold_table = flectofold_ros.executables:fold_table',
-            'day_report = flectofold_ros.executables:day_report',
-            'annual_report = flectofold_ros.executables:annual_report',
-            'building_report = flectofold_ros.executables:building_report',
-            'panel_node = flectofold_ros.executables:panel_node',
-            'panel_group = flectofold_ros.executables:panel_group',
-            'sun_position_node = flectofold_ros.executables:sun_position_node',
-            'weather_node = flectofold_ros.executables:weather_node',
-            'coordinator_node = flectofold_ros.executables:coordinator_node',
-            'facade = flectofold_ros.executables:facade',
-            'rerun_bridge = flectofold_ros.executables:rerun_bridge',
-            'facade_markers = flectofold_ros.executables:facade_markers',
-            'bag_recorder = flectofold_ros.executables:bag_recorder',
-            'replay = flectofold_ros.executables:replay',
-            'bag_reindex = flectofold_ros.executables:bag_reindex',
-            'facade_export = flectofold_ros.executables:facade_export',
-            'valve_terminal_sim = flectofold_ros.executables:valve_terminal_sim',
-            'structure_cache = flectofold_ros.executables:structure_cache',
-        ],
-    },
+    entry_points={'console_scripts': console_scripts()},
 )

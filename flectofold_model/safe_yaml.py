@@ -8,12 +8,14 @@ alias, naming its line and column, and refuses a document longer than :data:`MAX
 with more than :data:`MAX_NODES` nodes or nested deeper than :data:`MAX_DEPTH`, before it is
 built; a mapping that gives a key twice is refused naming both lines (PyYAML would keep the
 last value without a word). :func:`read_yaml` reads at most one character more than the bound
-from a file.
+from a file. A reader with rules of its own asks :func:`load_yaml` for them: a smaller size
+bound, anchors refused as well as aliases, decimal numbers only (``12:30`` read as text).
 :func:`short_repr` quotes a value in an error message in at most a line.
 
 No rclpy: the model, the nodes and the recorder's readers share it.
 """
 
+import re
 import reprlib
 
 import yaml
@@ -79,17 +81,21 @@ class UniqueKeys:
 
 
 class _BoundedComposer(UniqueKeys, Composer):
-    """The PyYAML composer, counting nodes and depth, refusing aliases."""
+    """The PyYAML composer, counting nodes and depth, refusing aliases (and anchors if asked)."""
 
-    def __init__(self, source):
+    def __init__(self, source, anchors=True):
         super().__init__()
-        self._source, self._nodes, self._depth = source, 0, 0
+        self._source, self._anchors, self._nodes, self._depth = source, anchors, 0, 0
 
     def compose_node(self, parent, index):
         if self.check_event(AliasEvent):
             mark = self.peek_event().start_mark
+            if not self._anchors:
+                raise self._anchor_error(mark)
             raise YAMLInputError(f'{self._source}: {_where(mark)}: YAML aliases (*name) are '
                                  f'not accepted; write the value out')
+        if not self._anchors and getattr(self.peek_event(), 'anchor', None) is not None:
+            raise self._anchor_error(self.peek_event().start_mark)
         self._nodes += 1
         if self._nodes > MAX_NODES:
             raise YAMLInputError(f'{self._source}: {_where(self.peek_event().start_mark)}: '
@@ -103,51 +109,94 @@ class _BoundedComposer(UniqueKeys, Composer):
         finally:
             self._depth -= 1
 
+    def _anchor_error(self, mark):
+        return YAMLInputError(f'{self._source}: {_where(mark)}: YAML anchors and aliases '
+                              f'(&name, *name) are not accepted; write values out')
+
 
 class _Loader(_BoundedComposer, _Parser, SafeConstructor, Resolver):
     """Safe construction of plain values from a bounded composition (see the module)."""
 
-    def __init__(self, text, source):
+    def __init__(self, text, source, anchors=True):
         _Parser.__init__(self, text)
-        _BoundedComposer.__init__(self, source)
+        _BoundedComposer.__init__(self, source, anchors)
         SafeConstructor.__init__(self)
         Resolver.__init__(self)
+
+
+class _DecimalLoader(_Loader):
+    """:class:`_Loader` reading only decimal numbers as numbers (``decimal_numbers``)."""
+
+    yaml_implicit_resolvers = {
+        first: [(tag, pattern) for tag, pattern in resolvers
+                if tag not in ('tag:yaml.org,2002:int', 'tag:yaml.org,2002:float')]
+        for first, resolvers in Resolver.yaml_implicit_resolvers.items()}
+
+
+_DecimalLoader.add_implicit_resolver('tag:yaml.org,2002:int', re.compile(r'^[-+]?[0-9]+$'),
+                                     list('-+0123456789'))
+_DecimalLoader.add_implicit_resolver(
+    'tag:yaml.org,2002:float',
+    re.compile(r'^[-+]?(?:[0-9]+\.[0-9]*|\.[0-9]+|[0-9]+)(?:[eE][-+]?[0-9]+)?$'
+               r'|^[-+]?\.(?:inf|Inf|INF)$|^\.(?:nan|NaN|NAN)$'),
+    list('-+0123456789.'))
+
+
+#: YAML's line breaks (a ``\r\n`` is one).
+_LINE_BREAK = re.compile('\r\n|[\n\r\x85\u2028\u2029]')
 
 
 def _where(mark):
     return f'line {mark.line + 1}, column {mark.column + 1}'
 
 
-def _yaml_reason(error):
-    """One line from a PyYAML error: where and what, without the quoted source lines."""
+def _yaml_reason(error, text):
+    """One line from a PyYAML error in ``text``: where and what, without the quoted lines.
+
+    An error at the end of a text without a final line break is placed after its last
+    character, as PyYAML's Python parser places it: libyaml's names the line after the text.
+    """
     mark = getattr(error, 'problem_mark', None)
     problem = getattr(error, 'problem', None)
     if mark is None or problem is None:
         return _one_line(error)
+    where = _where(mark)
+    if mark.index >= len(text) and text and _LINE_BREAK.fullmatch(text[-1]) is None:
+        lines = _LINE_BREAK.split(text)
+        where = f'line {len(lines)}, column {len(lines[-1]) + 1}'
     context = getattr(error, 'context', None)
-    return _one_line(f'{_where(mark)}: {problem}' + (f' ({context})' if context else ''))
+    return _one_line(f'{where}: {problem}' + (f' ({context})' if context else ''))
 
 
 def _one_line(message, limit=300):
     return _short(' '.join(str(message).split()), limit)
 
 
-def load_yaml(text, source='YAML'):
+def load_yaml(text, source='YAML', max_characters=None, anchors=True, decimal_numbers=False):
     """Return the plain value of one YAML document; refuse it (:class:`YAMLInputError`).
 
-    ``source`` names the document in the messages (a path, a parameter).
+    ``source`` names the document in the messages (a path, a parameter). Rules a reader may
+    add (the fault scripts do):
+
+    - ``max_characters``: a smaller size bound than :data:`MAX_CHARACTERS`;
+    - ``anchors=False``: an anchor (``&name``) is refused as well as an alias, naming its
+      line and column; without aliases it has no use, and a reader may say so at once;
+    - ``decimal_numbers=True``: only decimal numbers are numbers (``60``, ``-1``, ``2e2``,
+      ``2.0e-8``, ``.inf``, ``.nan``); what YAML 1.1 would also read as a number stays text:
+      times ``12:30`` (sexagesimal 750), ``0x1f``, ``0o17``, ``1_000``.
     """
     if not isinstance(text, str):
         raise YAMLInputError(f'{source}: YAML must be text, got {type(text).__name__}')
-    if len(text) > MAX_CHARACTERS:
-        raise YAMLInputError(f'{source}: longer than {MAX_CHARACTERS} characters')
-    loader = _Loader(text, source)
+    bound = MAX_CHARACTERS if max_characters is None else min(max_characters, MAX_CHARACTERS)
+    if len(text) > bound:
+        raise YAMLInputError(f'{source}: longer than {bound} characters')
+    loader = (_DecimalLoader if decimal_numbers else _Loader)(text, source, anchors)
     try:
         return loader.get_single_data()
     except YAMLInputError:
         raise
     except yaml.YAMLError as error:
-        raise YAMLInputError(f'{source}: malformed YAML: {_yaml_reason(error)}') from None
+        raise YAMLInputError(f'{source}: malformed YAML: {_yaml_reason(error, text)}') from None
     except (ValueError, OverflowError) as error:  # a scalar the constructor cannot convert
         raise YAMLInputError(f'{source}: a value cannot be read: {_one_line(error)}') from None
     finally:

@@ -16,6 +16,9 @@ from flectofold_ros.runner import die_with_parent, Interrupted, stop_signals
 
 #: Executable -> (module with ``main(args=None)``, exit code when stopped while it loads):
 #: a node asked to stop ends normally (0), a day or a command cut short says so (130).
+#: The one list of the package's executables: each is the console script ``NAME`` running
+#: :func:`run` through this module's function ``NAME``; ``setup.py`` reads this literal from
+#: the source (it does not import the package) to list them, so it stays a plain literal.
 EXECUTABLES = {
     'fold_table': ('flectofold_ros.commands.fold_table', 130),
     'day_report': ('flectofold_ros.commands.day_report', 130),
@@ -107,21 +110,5 @@ def _entry_point(name):
     return main
 
 
-fold_table = _entry_point('fold_table')
-day_report = _entry_point('day_report')
-annual_report = _entry_point('annual_report')
-building_report = _entry_point('building_report')
-panel_node = _entry_point('panel_node')
-panel_group = _entry_point('panel_group')
-sun_position_node = _entry_point('sun_position_node')
-weather_node = _entry_point('weather_node')
-coordinator_node = _entry_point('coordinator_node')
-facade = _entry_point('facade')
-rerun_bridge = _entry_point('rerun_bridge')
-facade_markers = _entry_point('facade_markers')
-bag_recorder = _entry_point('bag_recorder')
-replay = _entry_point('replay')
-bag_reindex = _entry_point('bag_reindex')
-facade_export = _entry_point('facade_export')
-valve_terminal_sim = _entry_point('valve_terminal_sim')
-structure_cache = _entry_point('structure_cache')
+# The console scripts' entry points: ``fold_table = _entry_point('fold_table')`` and so on.
+globals().update({name: _entry_point(name) for name in EXECUTABLES})

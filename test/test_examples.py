@@ -6,7 +6,7 @@ import re
 import pytest
 
 from flectofold_model.facade import load_facade
-from flectofold_model.facade.description import _SURFACE_KEYS
+from flectofold_model.facade.schema import SURFACE_KEYS
 
 EXAMPLES = Path(__file__).resolve().parents[1] / 'examples'
 DESCRIPTIONS = sorted(EXAMPLES.glob('*.yaml'))
@@ -23,7 +23,7 @@ def test_an_example_loads_with_the_panels_it_states(path):
 
 def test_every_surface_type_and_both_panel_kinds_have_an_example():
     documents = [path.read_text() for path in DESCRIPTIONS]
-    for kind in _SURFACE_KEYS:
+    for kind in SURFACE_KEYS:
         assert any(f'type: {kind},' in text for text in documents), kind
     assert any('type: hexagon' in text for text in documents)
 

@@ -3,13 +3,13 @@
 import ast
 import os
 from pathlib import Path
-import re
 import shutil
 import subprocess
 import sys
 
 from catkin_pkg.package import parse_package
 import pytest
+from setup_script import console_scripts
 
 from flectofold_ros import executables
 
@@ -35,9 +35,8 @@ def test_package_xml_is_format_3_ament_python():
 
 
 def test_every_executable_is_a_console_script_through_the_signal_safe_entry_point():
-    setup = (ROOT / 'setup.py').read_text()
-    scripts = dict(re.findall(r"'(\w+) = ([\w.:]+)'", setup))
-    assert scripts == {name: f'flectofold_ros.executables:{name}' for name in EXECUTABLES}
+    assert console_scripts() == {name: f'flectofold_ros.executables:{name}'
+                                 for name in EXECUTABLES}
 
 
 def test_setup_cfg_puts_scripts_where_ros2_run_looks():
@@ -143,6 +142,122 @@ def imported_modules(path, lazy=True):
         elif isinstance(node, ast.ImportFrom) and node.level == 0:
             names.add(node.module)
     return names
+
+
+#: The packages whose modules the import rules below hold for.
+OWN_PACKAGES = ('flectofold_model', 'flectofold_ros')
+
+
+def own_modules():
+    """Return the dotted name -> file of every module of :data:`OWN_PACKAGES`."""
+    modules = {}
+    for package in OWN_PACKAGES:
+        for path in (ROOT / package).rglob('*.py'):
+            parts = path.relative_to(ROOT).with_suffix('').parts
+            modules['.'.join(parts[:-1] if parts[-1] == '__init__' else parts)] = path
+    return modules
+
+
+def own_imports(name, path, modules):
+    """Return the imports of own modules in a file (in functions too) and the names bound.
+
+    The imports are ``(line, module, name)``: ``from a.b import c`` takes name ``c`` of
+    ``a.b``, or is module ``a.b.c`` itself (name None) where that is a module; ``import a.b``
+    is ``a.b``. A submodule's parent packages are not counted: Python imports them first, in
+    any order of the modules. The names bound are local name -> own module, for reading
+    their attributes.
+    """
+    package = name if path.name == '__init__.py' else name.rpartition('.')[0]
+    imports, bound = [], {}
+    for node in ast.walk(ast.parse(path.read_text())):
+        if isinstance(node, ast.Import):
+            for alias in node.names:
+                if alias.name in modules:
+                    imports.append((node.lineno, alias.name, None))
+                    top = alias.name.split('.')[0]
+                    bound[alias.asname or top] = alias.name if alias.asname else top
+        elif isinstance(node, ast.ImportFrom):
+            base = node.module or ''
+            if node.level:
+                parents = package.split('.')[:len(package.split('.')) - node.level + 1]
+                base = '.'.join(parents + ([node.module] if node.module else []))
+            for alias in node.names:
+                if f'{base}.{alias.name}' in modules:
+                    imports.append((node.lineno, f'{base}.{alias.name}', None))
+                    bound[alias.asname or alias.name] = f'{base}.{alias.name}'
+                elif base in modules:
+                    imports.append((node.lineno, base, alias.name))
+    return [entry for entry in imports if entry[1] != name], bound
+
+
+def is_private(name):
+    return name.startswith('_') and not (name.startswith('__') and name.endswith('__'))
+
+
+def module_named(expression, bound):
+    """Return the own module an expression (``a``, ``a.b``) names through imports, or None."""
+    if isinstance(expression, ast.Name):
+        return bound.get(expression.id)
+    if isinstance(expression, ast.Attribute):
+        owner = module_named(expression.value, bound)
+        return None if owner is None else f'{owner}.{expression.attr}'
+    return None
+
+
+def test_no_module_of_the_package_uses_a_private_name_of_another():
+    """Keep ``_``-names in their module: none imported from it, none read as ``module._name``.
+
+    What another module needs is public (no leading underscore); dunder names do not count.
+    """
+    modules = own_modules()
+    found = []
+    for name, path in modules.items():
+        where = path.relative_to(ROOT)
+        imports, bound = own_imports(name, path, modules)
+        found += [f'{where}:{line}: imports {imported} from {module}'
+                  for line, module, imported in imports
+                  if imported is not None and is_private(imported)]
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.Attribute) and is_private(node.attr):
+                owner = module_named(node.value, bound)
+                if owner in modules and owner != name:
+                    found.append(f'{where}:{node.lineno}: reads {owner}.{node.attr}')
+    assert not found, '\n'.join(found)
+
+
+def test_the_package_modules_import_each_other_without_a_circle():
+    """No import circle among the package's own modules, imports within functions included."""
+    modules = own_modules()
+    graph = {name: sorted({module for _, module, _ in own_imports(name, path, modules)[0]})
+             for name, path in modules.items()}
+    circle = import_circle(graph)
+    assert not circle, 'import circle: ' + ' -> '.join(circle)
+
+
+def import_circle(graph):
+    """Return a circle of ``graph`` (its modules, the first again at the end), else []."""
+    state, trail = {}, []  # state: 'open' while on the trail, then 'done'
+
+    def visit(node):
+        state[node] = 'open'
+        trail.append(node)
+        for following in graph[node]:
+            if state.get(following) == 'open':
+                return trail[trail.index(following):] + [following]
+            if following not in state:
+                circle = visit(following)
+                if circle:
+                    return circle
+        trail.pop()
+        state[node] = 'done'
+        return []
+
+    for node in sorted(graph):
+        if node not in state:
+            circle = visit(node)
+            if circle:
+                return circle
+    return []
 
 
 #: Top-level module -> rosdep key of the package that provides it.

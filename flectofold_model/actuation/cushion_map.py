@@ -153,12 +153,12 @@ def _tables(model, closures):
     step = model.derivative_step
     index = np.repeat(np.arange(len(model)), closures.size)
     flat = shape.ravel()
-    pressure = model._pressure(flat, index).reshape(shape.shape)
-    volume = model._volume(flat, index).reshape(shape.shape)
-    pressure_rate = (model._pressure(flat + step, index)
-                     - model._pressure(flat - step, index)).reshape(shape.shape) / (2 * step)
-    volume_rate = (model._volume(flat + step, index)
-                   - model._volume(flat - step, index)).reshape(shape.shape) / (2 * step)
+    pressure = model.pressure(flat, index).reshape(shape.shape)
+    volume = model.volume(flat, index).reshape(shape.shape)
+    pressure_rate = (model.pressure(flat + step, index)
+                     - model.pressure(flat - step, index)).reshape(shape.shape) / (2 * step)
+    volume_rate = (model.volume(flat + step, index)
+                   - model.volume(flat - step, index)).reshape(shape.shape) / (2 * step)
     if np.any(np.diff(pressure, axis=1) <= 0):
         raise ValueError('the pressure map is not monotone in closure: the panel would snap')
     return pressure, volume, volume_rate / pressure_rate, fold_angle

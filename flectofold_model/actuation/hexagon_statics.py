@@ -187,13 +187,13 @@ class HexagonActuationModel(StaticActuationModel):
         wedge = wedge_volume_m3(self._cushion_radius[index, None], centre_gap, steepening)
         return np.sum(wedge * self._volume_weights, axis=-1)
 
-    def _energy(self, rise, index):
+    def energy(self, rise, index):
         return self._energy_of(self._geometry(rise, index), index)
 
-    def _volume(self, rise, index):
+    def volume(self, rise, index):
         return self._volume_of(self._geometry(rise, index), rise, index)
 
-    def _pressure(self, rise, index):
+    def pressure(self, rise, index):
         step = self.derivative_step
         above, below = self._geometry(rise + step, index), self._geometry(rise - step, index)
         energy = self._energy_of(above, index) - self._energy_of(below, index)
@@ -223,7 +223,7 @@ class HexagonActuationModel(StaticActuationModel):
             return (function(rise + step, self._all) - 2 * function(rise, self._all)
                     + function(rise - step, self._all)) / step ** 2
 
-        return second(self._energy) - gauge_pressure_pa * second(self._volume)
+        return second(self.energy) - gauge_pressure_pa * second(self.volume)
 
     def shape_table(self, closures):
         """Centre rises [m] and apex fold angles [rad] (N, S) at closure samples (S,).

@@ -67,7 +67,7 @@ _ATM = ATMOSPHERIC_PRESSURE_PA
 
 
 @inline_kernel
-def _mass_flow(from_pa, to_pa, conductance, critical_ratio, temperature_scale):
+def mass_flow(from_pa, to_pa, conductance, critical_ratio, temperature_scale):
     """Signed ISO 6358 mass flow [kg/s]; :func:`.flow.mass_flow` for scalars."""
     high, low = (from_pa, to_pa) if from_pa >= to_pa else (to_pa, from_pa)
     subsonic = min(max((low / high - critical_ratio) / (1.0 - critical_ratio), 0.0), 1.0)
@@ -82,13 +82,13 @@ def _mass_flow(from_pa, to_pa, conductance, critical_ratio, temperature_scale):
 @inline_kernel
 def _cushion(pressure_table, volume_table, compliance_table, row, gauge_pa):
     """Volume and compliance of one panel's cushion: :meth:`.CushionMap.__call__` for a scalar."""
-    volume, compliance = _cushion_off_stops(pressure_table, volume_table, compliance_table, row,
-                                            gauge_pa)
-    return volume, compliance * _off_stops(pressure_table[row], gauge_pa)
+    volume, compliance = cushion_off_stops(pressure_table, volume_table, compliance_table, row,
+                                           gauge_pa)
+    return volume, compliance * off_stops(pressure_table[row], gauge_pa)
 
 
 @inline_kernel
-def _cushion_off_stops(pressure_table, volume_table, compliance_table, row, gauge_pa):
+def cushion_off_stops(pressure_table, volume_table, compliance_table, row, gauge_pa):
     """Volume and compliance of one panel's cushion as the table has them, no stop ramped in."""
     table = pressure_table[row]
     last = table.shape[0] - 1
@@ -102,7 +102,7 @@ def _cushion_off_stops(pressure_table, volume_table, compliance_table, row, gaug
 
 
 @inline_kernel
-def _off_stops(table, gauge_pa):
+def off_stops(table, gauge_pa):
     """Share of the table's compliance a cushion has at ``gauge_pa``: 0 on a stop, 1 off it.
 
     Within the first and the last interval of the pressure ``table`` it ramps to zero at the
@@ -127,9 +127,9 @@ def _rates(pressure_pa, panel):
     (critical_ratio, temperature_scale, rt, dead_volume, relief_cracking, relief_span,
      relief_conductance) = circuit
     p = max(pressure_pa, _ATM)
-    fill = 0.0 if fill_conductance == 0.0 else _mass_flow(supply_pa, p, fill_conductance,
-                                                          critical_ratio, temperature_scale)
-    per_conductance = _mass_flow(p, _ATM, 1.0, critical_ratio, temperature_scale)
+    fill = 0.0 if fill_conductance == 0.0 else mass_flow(supply_pa, p, fill_conductance,
+                                                         critical_ratio, temperature_scale)
+    per_conductance = mass_flow(p, _ATM, 1.0, critical_ratio, temperature_scale)
     relief = min(max((p - _ATM - relief_cracking) / relief_span, 0.0), 1.0) * relief_conductance
     exhaust = vent_conductance + leak_conductance + relief
     volume, compliance = _cushion(tables[0], tables[1], tables[2], row, p - _ATM)
@@ -140,8 +140,8 @@ def _rates(pressure_pa, panel):
 
 
 @inline_kernel
-def _advance_panel(i, dt_s, pressure, free_air_m3, vented_m3, lagged_pa, step_s, fill, vent,
-                   leak, supply, tables, row, circuit, sensor_lag_s, tolerance_pa):
+def advance_panel(i, dt_s, pressure, free_air_m3, vented_m3, lagged_pa, step_s, fill, vent,
+                  leak, supply, tables, row, circuit, sensor_lag_s, tolerance_pa):
     """Integrate panel ``i`` over ``dt_s``; return the steps accepted and rejected."""
     p, free_air, vented, lagged = pressure[i], free_air_m3[i], vented_m3[i], lagged_pa[i]
     h = step_s[i]
@@ -191,9 +191,9 @@ def _advance_all(dt_s, pressure, free_air_m3, vented_m3, lagged_pa, step_s, fill
                  supply, tables, row, circuit, sensor_lag_s, tolerance_pa):
     accepted, rejected = 0, 0
     for i in range(pressure.shape[0]):
-        a, r = _advance_panel(i, dt_s, pressure, free_air_m3, vented_m3, lagged_pa, step_s,
-                              fill, vent, leak, supply, tables, row, circuit, sensor_lag_s,
-                              tolerance_pa)
+        a, r = advance_panel(i, dt_s, pressure, free_air_m3, vented_m3, lagged_pa, step_s,
+                             fill, vent, leak, supply, tables, row, circuit, sensor_lag_s,
+                             tolerance_pa)
         accepted += a
         rejected += r
     return accepted, rejected

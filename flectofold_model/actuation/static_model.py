@@ -3,7 +3,7 @@
 A static model has one degree of freedom per panel, the *shape parameter* of its fold model
 (the mid-rib's elastica modulus for a quad panel, the centre rise [m] for a hexagonal one).
 A subclass gives the stored energy, cushion volume and holding pressure at shape parameters
-for a set of panel indices (``_energy``, ``_volume``, ``_pressure``, each ``(shape (M,),
+for a set of panel indices (``energy``, ``volume``, ``pressure``, each ``(shape (M,),
 index (M,)) -> (M,)``); this base turns them into the public maps: energy, volume and
 pressure at a shape, pressure <-> closure both ways (by scipy's elementwise root finder, on
 just the panels still unresolved), the reachable closure of a supply and the table of shapes
@@ -28,7 +28,7 @@ class StaticActuationModel:
     Subclasses set ``panels``, ``quadrature_points``, ``fold`` (a fold model of the kind),
     ``_all`` (``arange(N)``), ``derivative_step`` (the central-difference step in the shape
     parameter), ``shape_name`` (the shape parameter's name in error messages) and
-    ``closed_pressure_pa``, and define ``_energy``, ``_volume`` and ``_pressure``.
+    ``closed_pressure_pa``, and define ``energy``, ``volume`` and ``pressure``.
     """
 
     shape_name = 'shape'
@@ -58,15 +58,15 @@ class StaticActuationModel:
 
     def elastic_energy_j(self, shape):
         """Elastic energy stored in each panel at shape parameters ``shape`` [J]."""
-        return self._energy(self._shape_array(shape), self._all)
+        return self.energy(self._shape_array(shape), self._all)
 
     def cushion_volume_m3(self, shape):
         """Cushion volume at shape parameters ``shape`` [m3]."""
-        return self._volume(self._shape_array(shape), self._all)
+        return self.volume(self._shape_array(shape), self._all)
 
     def pressure_from_shape(self, shape):
         """Gauge pressure [Pa] that holds each panel at shape parameter ``shape``."""
-        return self._pressure(self._shape_array(shape), self._all)
+        return self.pressure(self._shape_array(shape), self._all)
 
     def pressure_from_closure(self, closure):
         """Gauge pressure [Pa] that holds each panel at closure in [0, 1]."""
@@ -82,7 +82,7 @@ class StaticActuationModel:
                                    (len(self),))
         target = np.clip(pressure, 0.0, self.closed_pressure_pa)
         opened, closed = self.fold.open_shape, self.fold.closed_shape
-        result = find_root(lambda shape, goal, index: self._pressure(shape, index) - goal,
+        result = find_root(lambda shape, goal, index: self.pressure(shape, index) - goal,
                            (opened, closed), args=(target, self._all),
                            tolerances={'xatol': 1e-14, 'xrtol': 1e-13})
         if not np.all(result.success):

@@ -167,7 +167,7 @@ class ActuationModel(StaticActuationModel):
                 f'its stroke at a {self._cushion_max_gap[index] * 1e3:.1f} mm gap, but closing '
                 f'needs {gap[index] * 1e3:.1f} mm; use a wider cushion')
 
-    def _energy(self, k, index):
+    def energy(self, k, index):
         curvature, fold = self._curvature_and_fold(k, index)
         plates = self._plate_weights[index] * np.square(curvature - self._open_curvature[index])
         hinges = self._hinge_weights[index] * np.square(fold - self._open_fold[index])
@@ -178,14 +178,14 @@ class ActuationModel(StaticActuationModel):
                - self._open_height[index])
         return np.clip(gap, 0.0, self._cushion_max_gap[index, None])
 
-    def _volume(self, k, index):
+    def volume(self, k, index):
         area = section_area_m2(self._cushion_width[index, None], self._gap(k, index))
         return np.sum(area * self._cushion_weights[index], axis=-1)
 
-    def _pressure(self, k, index):
+    def pressure(self, k, index):
         step = DERIVATIVE_STEP
-        energy = self._energy(k + step, index) - self._energy(k - step, index)
-        volume = self._volume(k + step, index) - self._volume(k - step, index)
+        energy = self.energy(k + step, index) - self.energy(k - step, index)
+        volume = self.volume(k + step, index) - self.volume(k - step, index)
         return energy / volume
 
     _k_array = StaticActuationModel._shape_array
@@ -207,7 +207,7 @@ class ActuationModel(StaticActuationModel):
             return (function(k + step, self._all) - 2 * function(k, self._all)
                     + function(k - step, self._all)) / step**2
 
-        return second(self._energy) - gauge_pressure_pa * second(self._volume)
+        return second(self.energy) - gauge_pressure_pa * second(self.volume)
 
     stiffness_at_shape = stiffness_at_k
     k_from_pressure = StaticActuationModel.shape_from_pressure

@@ -116,8 +116,8 @@ class SimulatedCushions(CushionDriver):
         return self.plant.read_supply_sensor()
 
     def write_valves(self, fill_opening, vent_opening):
-        fill = _openings('fill_opening', fill_opening, self.count)
-        vent = _openings('vent_opening', vent_opening, self.count)
+        fill = openings('fill_opening', fill_opening, self.count)
+        vent = openings('vent_opening', vent_opening, self.count)
         self._fill, self._vent = fill, vent
 
     def advance(self, dt_s):
@@ -137,6 +137,6 @@ class SimulatedCushions(CushionDriver):
         return self.plant.free_air_used_m3
 
 
-def _openings(name, value, count):
+def openings(name, value, count):
     array = np.broadcast_to(real_array(name, value), (count,)).astype(np.float64)
     return in_range(name, array, 0.0, 1.0)

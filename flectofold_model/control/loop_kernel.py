@@ -17,7 +17,7 @@ import numpy as np
 
 from flectofold_model._compiled import inline_kernel, kernel
 from flectofold_model.actuation.flow import ATMOSPHERIC_PRESSURE_PA
-from flectofold_model.actuation.integration import _cushion_off_stops, _mass_flow, _off_stops
+from flectofold_model.actuation.integration import cushion_off_stops, mass_flow, off_stops
 
 _ATM = ATMOSPHERIC_PRESSURE_PA
 
@@ -139,9 +139,9 @@ def _regulate(i, dt_s, previous_reference, supply_pa, state, parameters, circuit
     rate = ((reference - previous_reference) / dt_s
             + (error + state[INTEGRAL, i] / parameters[_TI]) / parameters[_TAU])
     gauge = max(pressure, 0.0)
-    volume, free_compliance = _cushion_off_stops(tables[0], tables[1], tables[2], tables[4][i],
-                                                 gauge)
-    compliance = free_compliance * _off_stops(tables[0][tables[4][i]], gauge)
+    volume, free_compliance = cushion_off_stops(tables[0], tables[1], tables[2], tables[4][i],
+                                                gauge)
+    compliance = free_compliance * off_stops(tables[0][tables[4][i]], gauge)
     absolute = pressure + _ATM
     capacitance = (volume + dead_volume + absolute * compliance) / rt
     # The inflow test expects of a vent no more than the least drop the cushion allows: with
@@ -154,10 +154,10 @@ def _regulate(i, dt_s, previous_reference, supply_pa, state, parameters, circuit
     upstream = supply_pa if math.isfinite(supply_pa) else 0.0
     # Opening the fill valve against a supply no higher than the cushion would drain it.
     can_fill = upstream > absolute + parameters[_SUPPLY_MARGIN]
-    fill_capacity = _mass_flow(max(upstream, absolute + 1.0), absolute, fill_conductance,
-                               critical_ratio, temperature_scale)
-    vent_capacity = _mass_flow(max(absolute, _ATM + 1.0), _ATM, vent_conductance,
-                               critical_ratio, temperature_scale)
+    fill_capacity = mass_flow(max(upstream, absolute + 1.0), absolute, fill_conductance,
+                              critical_ratio, temperature_scale)
+    vent_capacity = mass_flow(max(absolute, _ATM + 1.0), _ATM, vent_conductance,
+                              critical_ratio, temperature_scale)
     state[FILL_CAPACITY, i] = fill_capacity if can_fill else 0.0
     state[VENT_CAPACITY, i], state[INFLOW_CAPACITANCE, i] = vent_capacity, largest_capacitance
     # A vented cushion cannot go below the atmosphere, so at the open reference a reading below

@@ -248,7 +248,7 @@ class PanelLoops:
         while periods:
             span = min(self.quiet_periods, periods) if self._resting() else 1
             # the state a quiet span holds: computed only for one
-            held = (self._current_feedback(), self.measured_pa) if span > 1 else None
+            held = (self.current_feedback(), self.measured_pa) if span > 1 else None
             command = self._period(span * self.period_s)
             if span > 1 and (np.any(command.fill_opening) or np.any(command.vent_opening)):
                 span = 1  # woke up: these openings hold for one short period only
@@ -282,7 +282,7 @@ class PanelLoops:
             runs = min(self._runs_per_call, periods)
             noise = plant.sensors.draw_ahead(runs)
             measured[0] = self.measured_pa
-            closure[0], fold_angle[0] = self._current_feedback()
+            closure[0], fold_angle[0] = self.current_feedback()
             arrays, constants, sensors = plant.kernel_view()
             made, done, quiet, accepted, rejected = run_periods(
                 periods, runs, self.period_s, self.quiet_periods, self._setpoint, rested,
@@ -335,7 +335,7 @@ class PanelLoops:
         if self._sampler is None or not self._sampler.due(clock_s):
             return
         if feedback is None:
-            feedback, measured_pa = self._current_feedback(), self.measured_pa
+            feedback, measured_pa = self.current_feedback(), self.measured_pa
             active = self.controller.active
         self._keep(clock_s, feedback, measured_pa, active)
 
@@ -400,7 +400,7 @@ class PanelLoops:
 
     # -- feedback --------------------------------------------------------------------------
 
-    def _current_feedback(self):
+    def current_feedback(self):
         """Closure and fold angle (N,) of the last period, computed once per period."""
         if self._feedback is None:
             closure, fold_angle = np.empty(len(self)), np.empty(len(self))
@@ -416,12 +416,12 @@ class PanelLoops:
     @property
     def closure(self):
         """Closure (N,) the static map gives for the filtered measured pressure."""
-        return self._current_feedback()[0].copy()
+        return self.current_feedback()[0].copy()
 
     @property
     def fold_angle_rad(self):
         """Flap fold angle at the crease apex (N,) [rad], from :attr:`closure`."""
-        return self._current_feedback()[1].copy()
+        return self.current_feedback()[1].copy()
 
     @property
     def fault(self):
@@ -479,12 +479,12 @@ class LoopRow:
     @property
     def closure(self):
         """Closure of the last period (see :attr:`PanelLoops.closure`)."""
-        return float(self.loops._current_feedback()[0][self.index])
+        return float(self.loops.current_feedback()[0][self.index])
 
     @property
     def fold_angle_rad(self):
         """Apex fold angle of the last period [rad]."""
-        return float(self.loops._current_feedback()[1][self.index])
+        return float(self.loops.current_feedback()[1][self.index])
 
     @property
     def gauge_pa(self):

@@ -7,7 +7,7 @@ the period, or over a quiet span while every panel rests), :func:`run_periods` d
 :class:`~flectofold_model.actuation.sensors.CushionSensors` reads them (noise drawn by the
 caller from the sensors' own generator, in the same order), the loop by
 :func:`.loop_kernel.control_panel`, the plant by the engine's
-:func:`~flectofold_model.actuation.integration._advance_panel`. The same inputs give the same
+:func:`~flectofold_model.actuation.integration.advance_panel`. The same inputs give the same
 numbers as the period-by-period path; the tests hold the two against each other.
 
 It records each run's span and every panel's measurement, closure and fold angle after it,
@@ -17,7 +17,7 @@ for the loop to keep the states its nodes publish.
 import numpy as np
 
 from flectofold_model._compiled import inline_kernel, kernel
-from flectofold_model.actuation.integration import _advance_panel
+from flectofold_model.actuation.integration import advance_panel
 from flectofold_model.control.loop_kernel import (control_panel, feedback_all, LAST_FILL,
                                                   LAST_VENT, REFERENCE, TARGET)
 
@@ -103,10 +103,10 @@ def run_periods(periods, max_runs, period_s, quiet_periods, setpoint, rested_set
             fill_conductance[i] = (1.0 if fill_stuck[i] else fill[i]) * fill_max
             vent_conductance[i] = vent[i] * vent_max
         for i in range(count):
-            a, r = _advance_panel(i, span * period_s, pressure, free_air, vented, lagged, step_s,
-                                  fill_conductance, vent_conductance, leak, supply_pa,
-                                  plant_tables, plant_row, plant_circuit, sensor_lag_s,
-                                  tolerance_pa)
+            a, r = advance_panel(i, span * period_s, pressure, free_air, vented, lagged, step_s,
+                                 fill_conductance, vent_conductance, leak, supply_pa,
+                                 plant_tables, plant_row, plant_circuit, sensor_lag_s,
+                                 tolerance_pa)
             accepted += a
             rejected += r
         feedback_all(state, tables, closure[runs + 1], fold_angle_rad[runs + 1])

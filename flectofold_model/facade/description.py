@@ -34,6 +34,9 @@ import numpy as np
 
 from flectofold_model.environment.sun import Site
 from flectofold_model.facade import surfaces
+from flectofold_model.facade.schema import (build, check, check_mix, check_type, FacadeError,
+                                            need, PANEL_DEFAULTS, PANEL_KEYS, parametric,
+                                            SCHEMA, shown_key, surface_kind)
 from flectofold_model.kinematics.panel import fold_line_sag, PanelGeometry
 from flectofold_model.safe_yaml import load_yaml, read_yaml, short_repr, YAMLInputError
 
@@ -41,41 +44,7 @@ from flectofold_model.safe_yaml import load_yaml, read_yaml, short_repr, YAMLInp
 DATA_DIRECTORY = Path(__file__).with_name('data')
 DEFAULT_FACADE = DATA_DIRECTORY / 'demonstrator_6x6.yaml'
 
-
-class FacadeError(ValueError):
-    """A facade description that cannot be built; the message names the key and the reason."""
-
-
-_SCHEMA = {
-    'name': str,
-    'site': {'latitude_deg': float, 'longitude_deg': float, 'elevation_m': float,
-             'utc_offset_h': float},
-    'facade': {'azimuth_deg': float},
-    'surface': {'type': str, 'width_m': float, 'height_m': float, 'radius_m': float,
-                'semi_axis_u_m': float, 'semi_axis_v_m': float, 'depth_m': float,
-                'curvature_u_per_m': float, 'curvature_v_per_m': float, 'path': str},
-    'grid': {'rows': int, 'columns': int, 'gap_m': float, 'midrib_along': str},
-    'panel': {'type': str, 'fold_radius_m': float, 'midrib_end_width_m': float,
-              'hinge_width_m': float, 'min_prefold_rad': float,
-              'max_moulded_prefold_rad': float, 'closed_clearance_m': float,
-              'circumradius_m': float, 'fold_line_sag_m': float},
-    'overrides': dict,
-    'control': dict,
-    'actuation': {'cushion_map': str},
-}
-#: The panel keys of each panel kind (``panel.type``); a facade is all one kind.
-_PANEL_KEYS = {
-    'quad': ('fold_radius_m', 'midrib_end_width_m', 'hinge_width_m', 'min_prefold_rad',
-             'max_moulded_prefold_rad', 'closed_clearance_m'),
-    'hexagon': ('circumradius_m', 'fold_line_sag_m', 'hinge_width_m', 'min_prefold_rad',
-                'max_moulded_prefold_rad', 'closed_clearance_m'),
-}
-_QUAD_PANEL = {key: _SCHEMA['panel'][key] for key in _PANEL_KEYS['quad']}
-_SURFACE_KEYS = {'plane': (), 'cylinder': ('radius_m',),
-                 'dome': ('semi_axis_u_m', 'semi_axis_v_m', 'depth_m'),
-                 'saddle': ('curvature_u_per_m', 'curvature_v_per_m'), 'obj': ('path',)}
-_PANEL_DEFAULTS = {'min_prefold_rad': math.radians(5.0),
-                   'max_moulded_prefold_rad': math.radians(15.0), 'closed_clearance_m': 0.02}
+_QUAD_PANEL = {key: SCHEMA['panel'][key] for key in PANEL_KEYS['quad']}
 _CONTROL_KEYS = {'period_s', 'shading_target', 'look_ahead_s', 'controller'}
 #: Where the plant, the loops and the scheduler take a panel's pressure, air and closure from:
 #: the energy statics of each panel, or the structural model of the facade's median panel.
@@ -263,12 +232,12 @@ def surface_quads(path=DEFAULT_FACADE):
         raise FacadeError('surface quads: a hexagon facade is tessellated into hexagonal '
                           'cells, not quads')
     surface = document['surface']
-    kind = _surface_kind(surface)
+    kind = surface_kind(surface)
     if kind == 'obj':
-        return _build('surface.path', lambda: surfaces.read_obj_quads(
+        return build('surface.path', lambda: surfaces.read_obj_quads(
             Path(path).parent / surface['path']))
     grid = document['grid']
-    return _parametric(surface, kind).grid_quads(grid['rows'], grid['columns'])
+    return parametric(surface, kind).grid_quads(grid['rows'], grid['columns'])
 
 
 def build_facade(text, base_directory='.'):
@@ -283,7 +252,7 @@ def build_facade(text, base_directory='.'):
 def _build_document(document, base_directory):
     if not isinstance(document, dict):
         raise FacadeError('a facade description is a mapping of sections')
-    _check(document, _SCHEMA, '')
+    check(document, SCHEMA, '')
     _check_name(document.get('name', 'facade'))
     for section in ('site', 'facade', 'surface', 'panel'):
         if section not in document:
@@ -292,13 +261,13 @@ def _build_document(document, base_directory):
     if kind == 'quad' and 'grid' not in document:
         raise FacadeError('grid: missing section')
     site_doc = document['site']
-    site = _build('site', lambda: Site(latitude_deg=_need(site_doc, 'site', 'latitude_deg'),
-                                       longitude_deg=_need(site_doc, 'site', 'longitude_deg'),
-                                       elevation_m=site_doc.get('elevation_m', 0.0)))
+    site = build('site', lambda: Site(latitude_deg=need(site_doc, 'site', 'latitude_deg'),
+                                      longitude_deg=need(site_doc, 'site', 'longitude_deg'),
+                                      elevation_m=site_doc.get('elevation_m', 0.0)))
     utc_offset = site_doc.get('utc_offset_h', 0.0)
     if not -12 <= utc_offset <= 14:
         raise FacadeError(f'site.utc_offset_h: must lie in [-12, 14] h, got {utc_offset:g}')
-    azimuth = _need(document['facade'], 'facade', 'azimuth_deg')
+    azimuth = need(document['facade'], 'facade', 'azimuth_deg')
     if not 0 <= azimuth < 360:
         raise FacadeError(f'facade.azimuth_deg: must lie in [0, 360), got {azimuth:g}')
     if kind == 'hexagon':
@@ -321,11 +290,11 @@ def _build_document(document, base_directory):
 
 def _panel_kind(template):
     kind = template.get('type', 'quad')
-    if kind not in _PANEL_KEYS:
+    if kind not in PANEL_KEYS:
         raise FacadeError(f"panel.type: must be 'quad' or 'hexagon', got {short_repr(kind)}")
     for key in template:
-        if key != 'type' and key not in _PANEL_KEYS[kind]:
-            other = next(k for k in _PANEL_KEYS if k != kind)
+        if key != 'type' and key not in PANEL_KEYS[kind]:
+            other = next(k for k in PANEL_KEYS if k != kind)
             raise FacadeError(f'panel.{key}: not used by a {kind} panel (a {other} key; a '
                               f'facade is all quad or all hexagon panels, set by panel.type)')
     return kind
@@ -346,102 +315,24 @@ def _hexagon_facade(document, base_directory):
     return cells, control, hexagon_description.panels(cells, document)
 
 
-def _key(key):
-    """Return a key as a message shows it: a short string as is, anything else quoted."""
-    if isinstance(key, str) and len(key) <= 40 and key.isprintable():
-        return key
-    return short_repr(key)
-
-
-def _check(document, schema, prefix):
-    for key, value in document.items():
-        where = f'{prefix}{_key(key)}'
-        if key not in schema:
-            known = ', '.join(sorted(schema))
-            raise FacadeError(f'{where}: unknown key (known here: {known})')
-        expected = schema[key]
-        if isinstance(expected, dict):
-            if not isinstance(value, dict):
-                raise FacadeError(f'{where}: must be a mapping, got {type(value).__name__}')
-            _check(value, expected, f'{where}.')
-        else:
-            _check_type(where, value, expected)
-
-
-def _check_type(where, value, expected):
-    if expected is float:
-        if isinstance(value, bool) or not isinstance(value, (int, float)):
-            raise FacadeError(f'{where}: must be a number, got {short_repr(value)}')
-        try:
-            finite = math.isfinite(value)
-        except OverflowError:  # an integer beyond any float
-            finite = False
-        if not finite:
-            raise FacadeError(f'{where}: must be finite, got {short_repr(value)}')
-    elif expected is int:
-        if isinstance(value, bool) or not isinstance(value, int):
-            raise FacadeError(f'{where}: must be a whole number, got {short_repr(value)}')
-    elif not isinstance(value, expected):
-        raise FacadeError(f'{where}: must be a {expected.__name__}, got {short_repr(value)}')
-
-
 def _check_name(name):
     if not (isinstance(name, str) and _NAME.fullmatch(name)):
         raise FacadeError(f'name: must be 1 to 64 letters, digits, _ . or - (starting with a '
                           f'letter or digit), got {short_repr(name)}')
 
 
-def _need(section, name, key):
-    if key not in section:
-        raise FacadeError(f'{name}.{key}: missing')
-    return section[key]
-
-
-def _build(where, make):
-    try:
-        return make()
-    except (TypeError, ValueError) as error:
-        reason = ' '.join(str(error).split())
-        reason = reason if len(reason) <= 300 else f'{reason[:297]}...'
-        raise FacadeError(f'{where}: {reason}') from None
-
-
-def _surface_kind(surface):
-    """Check ``surface.type`` and that every key belongs to it; return the type."""
-    kind = _need(surface, 'surface', 'type')
-    if kind not in _SURFACE_KEYS:
-        raise FacadeError(f'surface.type: must be one of {", ".join(_SURFACE_KEYS)}, '
-                          f'got {short_repr(kind)}')
-    allowed = {'type', 'width_m', 'height_m', *_SURFACE_KEYS[kind]}
-    for key in surface:
-        if key not in allowed:
-            raise FacadeError(f'surface.{_key(key)}: not used by a {kind} surface')
-    return kind
-
-
-def _parametric(surface, kind):
-    """Build the parametric surface of a checked ``surface`` section."""
-    width, height = (_need(surface, 'surface', key) for key in ('width_m', 'height_m'))
-    for key, value in (('width_m', width), ('height_m', height)):
-        if value <= 0:
-            raise FacadeError(f'surface.{key}: must be positive, got {value:g} m')
-    arguments = [_need(surface, 'surface', key) for key in _SURFACE_KEYS[kind]]
-    maker = getattr(surfaces, kind)
-    return _build('surface', lambda: maker(width, height, *arguments))
-
-
 def _patches(surface, grid, base_directory):
-    kind = _surface_kind(surface)
+    kind = surface_kind(surface)
     midrib = grid.get('midrib_along', 'v')
     if midrib not in ('u', 'v', 'auto'):
         raise FacadeError(f"grid.midrib_along: must be 'u', 'v' or 'auto', "
                           f'got {short_repr(midrib)}')
     if kind == 'obj':
-        path = base_directory / _need(surface, 'surface', 'path')
-        vertices, faces = _build('surface.path', lambda: surfaces.read_obj_quads(path))
-        return _build('surface', lambda: surfaces.obj_patches(vertices, faces, midrib))
-    shape = _parametric(surface, kind)
-    rows, columns = (_need(grid, 'grid', key) for key in ('rows', 'columns'))
+        path = base_directory / need(surface, 'surface', 'path')
+        vertices, faces = build('surface.path', lambda: surfaces.read_obj_quads(path))
+        return build('surface', lambda: surfaces.obj_patches(vertices, faces, midrib))
+    shape = parametric(surface, kind)
+    rows, columns = (need(grid, 'grid', key) for key in ('rows', 'columns'))
     for key, value in (('rows', rows), ('columns', columns)):
         if not 1 <= value <= 1000:
             raise FacadeError(f'grid.{key}: must lie in [1, 1000], got {short_repr(value)}')
@@ -467,18 +358,18 @@ def _control(control):
     known = _CONTROL_KEYS | predictive | {f.name for f in fields(SchedulerParameters)}
     for key, value in control.items():
         if key not in known:
-            raise FacadeError(f'control.{_key(key)}: unknown key '
+            raise FacadeError(f'control.{shown_key(key)}: unknown key '
                               f'(known: {", ".join(sorted(known))})')
         if key == 'controller':
             if value not in CONTROLLERS:
                 raise FacadeError(f'control.controller: must be one of '
                                   f'{", ".join(CONTROLLERS)}, got {short_repr(value)}')
             continue
-        _check_type(f'control.{key}', value, float)
+        check_type(f'control.{key}', value, float)
     scheduler = {k: v for k, v in control.items()
                  if k not in _CONTROL_KEYS and k not in predictive}
-    _build('control', lambda: SchedulerParameters(**scheduler))
-    _build('control', lambda: PredictiveParameters.of(control))
+    build('control', lambda: SchedulerParameters(**scheduler))
+    build('control', lambda: PredictiveParameters.of(control))
     target = control.get('shading_target', 0.9)
     if not 0 <= target <= 1:
         raise FacadeError(f'control.shading_target: must lie in [0, 1], got {target:g}')
@@ -495,16 +386,16 @@ def _panels(patches, template, grid, overrides):
     ids = [f'r{r:02d}c{c:02d}' for r, c in zip(patches.row, patches.column)]
     for panel_id, settings in overrides.items():
         if panel_id not in ids:
-            raise FacadeError(f'overrides.{_key(panel_id)}: no such panel '
+            raise FacadeError(f'overrides.{shown_key(panel_id)}: no such panel '
                               f'(ids look like r00c03)')
         if not isinstance(settings, dict):
             raise FacadeError(f'overrides.{panel_id}: must be a mapping, '
                               f'got {short_repr(settings)}')
-        _check_mix(settings, f'overrides.{panel_id}')
-        _check(settings, _QUAD_PANEL, f'overrides.{panel_id}.')
+        check_mix(settings, f'overrides.{panel_id}')
+        check(settings, _QUAD_PANEL, f'overrides.{panel_id}.')
     panels, built_ids, kept, surface_prefold, moulded, excluded = [], [], [], [], [], []
     for index, panel_id in enumerate(ids):
-        settings = {**_PANEL_DEFAULTS, **template, **overrides.get(panel_id, {})}
+        settings = {**PANEL_DEFAULTS, **template, **overrides.get(panel_id, {})}
         where = f'overrides.{panel_id}' if panel_id in overrides else 'panel'
         for key in ('fold_radius_m', 'midrib_end_width_m', 'hinge_width_m'):
             if key not in settings:
@@ -520,7 +411,7 @@ def _panels(patches, template, grid, overrides):
                                        f'and the mould can add only '
                                        f'{math.degrees(mould):.1f} deg'))
             continue
-        panel = _build(f'{where} ({panel_id})', lambda: PanelGeometry.with_lens_midrib(
+        panel = build(f'{where} ({panel_id})', lambda: PanelGeometry.with_lens_midrib(
             length_m=length, width_m=width, fold_radius_m=settings['fold_radius_m'],
             end_width_m=settings['midrib_end_width_m'], hinge_width_m=settings['hinge_width_m'],
             prefold_rad=prefold, closed_clearance_m=settings['closed_clearance_m']))
@@ -530,12 +421,6 @@ def _panels(patches, template, grid, overrides):
         surface_prefold.append(supplied)
         moulded.append(mould)
     return panels, built_ids, np.array(kept, dtype=int), surface_prefold, moulded, excluded
-
-
-def _check_mix(settings, where):
-    if 'type' in settings:
-        raise FacadeError(f'{where}.type: a facade is all quad or all hexagon panels; set '
-                          f'panel.type once for the whole facade')
 
 
 def _surface_prefold(patches, index, length, width, settings):

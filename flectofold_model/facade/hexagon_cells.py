@@ -174,7 +174,7 @@ def tessellate(surface, cell_circumradius_m):
                          f'fits on the {surface.width_m:g} x {surface.height_m:g} m surface')
     u, v = development.parameters(centres[:, 0], centres[:, 1])
     origin = surface.point(u, v)
-    tangent_u, tangent_v, normal = surface._frame_vectors(u, v)
+    tangent_u, tangent_v, normal = surface.frame_vectors(u, v)
     rotation = np.stack([tangent_u, tangent_v, normal], axis=-1)
     corner = centres[:, None, :] + corner_offsets(cell_circumradius_m)[None]
     corner_u, corner_v = development.parameters(corner[..., 0], corner[..., 1])
@@ -194,7 +194,7 @@ def _normal_curvature(surface, u, v, rotation, azimuth_rad, step=1e-4):
     d_v = (surface.point(u, v + step) - surface.point(u, v - step)) / (2 * step)
     jacobian = np.stack([d_u, d_v], axis=-1)  # (N, 3, 2)
     du, dv = np.einsum('nij,nj->ni', np.linalg.pinv(jacobian), direction).T
-    return surface._normal_curvature(u, v, du, dv, rotation[..., 2])
+    return surface.normal_curvature(u, v, du, dv, rotation[..., 2])
 
 
 def obj_hexagon_cells(vertices, faces, lines, source):

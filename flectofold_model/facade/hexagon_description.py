@@ -15,18 +15,18 @@ import math
 import numpy as np
 
 from flectofold_model.facade import hexagon_cells, surfaces
-from flectofold_model.facade.description import (_build, _check, _check_mix, _key, _need,
-                                                 _PANEL_DEFAULTS, _PANEL_KEYS, _parametric,
-                                                 _SCHEMA, _surface_kind, FacadeError)
 from flectofold_model.facade.hexagon_prefold import (centre_rise_m, flap_tilt_rad,
                                                      reflection_fold_rad)
+from flectofold_model.facade.schema import (build, check, check_mix, FacadeError, need,
+                                            PANEL_DEFAULTS, PANEL_KEYS, parametric, SCHEMA,
+                                            shown_key, surface_kind)
 from flectofold_model.kinematics.hexagon.closure import HexagonFoldModel, MAX_SPOKE_TILT_RAD
 from flectofold_model.kinematics.hexagon.panel import HexagonBatch, HexagonPanel
 from flectofold_model.safe_yaml import short_repr
 
 _SQRT3 = math.sqrt(3.0)
 #: Keys an override may set for one hexagonal panel (the lattice fixes every cell's size).
-_OVERRIDE = {key: _SCHEMA['panel'][key] for key in _PANEL_KEYS['hexagon']
+_OVERRIDE = {key: SCHEMA['panel'][key] for key in PANEL_KEYS['hexagon']
              if key != 'circumradius_m'}
 
 
@@ -35,9 +35,9 @@ def cells(document, base_directory):
     template, grid = document['panel'], document.get('grid', {})
     for key in grid:
         if key != 'gap_m':
-            raise FacadeError(f'grid.{_key(key)}: not used by a hexagon facade (the surface '
+            raise FacadeError(f'grid.{shown_key(key)}: not used by a hexagon facade (the surface '
                               f'and panel.circumradius_m fix the lattice; only gap_m is set)')
-    radius = _need(template, 'panel', 'circumradius_m')
+    radius = need(template, 'panel', 'circumradius_m')
     if radius <= 0:
         raise FacadeError(f'panel.circumradius_m: must be positive, got {radius:g} m')
     gap = grid.get('gap_m', 0.0)
@@ -45,15 +45,15 @@ def cells(document, base_directory):
         raise FacadeError(f'grid.gap_m: must lie in [0, panel.circumradius_m = {radius:g} m], '
                           f'got {gap:g} m')
     surface = document['surface']
-    kind = _surface_kind(surface)
+    kind = surface_kind(surface)
     if kind == 'obj':
-        path = base_directory / _need(surface, 'surface', 'path')
-        vertices, faces, lines = _build('surface.path',
-                                        lambda: surfaces.read_obj_faces(path, 6))
-        return _build('surface.path', lambda: hexagon_cells.obj_hexagon_cells(
+        path = base_directory / need(surface, 'surface', 'path')
+        vertices, faces, lines = build('surface.path',
+                                       lambda: surfaces.read_obj_faces(path, 6))
+        return build('surface.path', lambda: hexagon_cells.obj_hexagon_cells(
             vertices, faces, lines, path))
-    shape = _parametric(surface, kind)
-    return _build('surface', lambda: hexagon_cells.tessellate(shape, radius + gap / _SQRT3))
+    shape = parametric(surface, kind)
+    return build('surface', lambda: hexagon_cells.tessellate(shape, radius + gap / _SQRT3))
 
 
 def panels(cells, document):
@@ -62,7 +62,7 @@ def panels(cells, document):
     gap = document.get('grid', {}).get('gap_m', 0.0)
     ids = [f'r{r:02d}c{c:02d}' for r, c in zip(cells.row, cells.column)]
     overrides = _overrides(document.get('overrides', {}), ids)
-    settings = [{**_PANEL_DEFAULTS, **template, **overrides.get(i, {})} for i in ids]
+    settings = [{**PANEL_DEFAULTS, **template, **overrides.get(i, {})} for i in ids]
     for panel_id, values in zip(ids, settings):
         _check_settings(values, f'overrides.{panel_id}' if panel_id in overrides else 'panel')
     radius = cells.circumradius_m - gap / _SQRT3
@@ -80,7 +80,7 @@ def panels(cells, document):
                                        f'mould can add only {math.degrees(mould):.1f} deg'))
             continue
         where = f'overrides.{panel_id}' if panel_id in overrides else 'panel'
-        built.append(_build(f'{where} ({panel_id})', lambda: HexagonPanel(
+        built.append(build(f'{where} ({panel_id})', lambda: HexagonPanel(
             circumradius_m=radius[index], fold_line_sag_m=values['fold_line_sag_m'],
             hinge_width_m=values['hinge_width_m'], prefold_rad=prefold,
             closed_clearance_m=values['closed_clearance_m'])))
@@ -97,16 +97,16 @@ def _overrides(overrides, ids):
     known = set(ids)
     for panel_id, values in overrides.items():
         if panel_id not in known:
-            raise FacadeError(f'overrides.{_key(panel_id)}: no such panel '
+            raise FacadeError(f'overrides.{shown_key(panel_id)}: no such panel '
                               f'(ids look like r00c03)')
         if not isinstance(values, dict):
             raise FacadeError(f'overrides.{panel_id}: must be a mapping, '
                               f'got {short_repr(values)}')
-        _check_mix(values, f'overrides.{panel_id}')
+        check_mix(values, f'overrides.{panel_id}')
         if 'circumradius_m' in values:
             raise FacadeError(f'overrides.{panel_id}.circumradius_m: the lattice sets every '
                               f'cell of a hexagon facade to one size; set panel.circumradius_m')
-        _check(values, _OVERRIDE, f'overrides.{panel_id}.')
+        check(values, _OVERRIDE, f'overrides.{panel_id}.')
     return overrides
 
 
@@ -149,5 +149,5 @@ def _check_fold_models(panels, ids):
     except ValueError as error:
         failure = error
     for panel, panel_id in zip(panels, ids):
-        _build(f'panel ({panel_id})', lambda: HexagonFoldModel(HexagonBatch.from_panels([panel])))
+        build(f'panel ({panel_id})', lambda: HexagonFoldModel(HexagonBatch.from_panels([panel])))
     raise FacadeError(f'panel: {failure}')

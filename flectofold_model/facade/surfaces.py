@@ -78,9 +78,9 @@ class ParametricSurface:
         u = -self.width_m / 2 + (column + 0.5) * du
         v = -self.height_m / 2 + (row + 0.5) * dv
         centre = self.point(u, v)
-        tangent_u, tangent_v, normal = self._frame_vectors(u, v)
-        curvature_u = self._normal_curvature(u, v, 1.0, 0.0, normal)
-        curvature_v = self._normal_curvature(u, v, 0.0, 1.0, normal)
+        tangent_u, tangent_v, normal = self.frame_vectors(u, v)
+        curvature_u = self.normal_curvature(u, v, 1.0, 0.0, normal)
+        curvature_v = self.normal_curvature(u, v, 0.0, 1.0, normal)
         span_u = np.linalg.norm(self.point(u + du / 2, v) - self.point(u - du / 2, v), axis=-1)
         span_v = np.linalg.norm(self.point(u, v + dv / 2) - self.point(u, v - dv / 2), axis=-1)
         if midrib_along == 'auto':
@@ -112,7 +112,7 @@ class ParametricSurface:
         quads = np.stack([node[:-1, :-1], node[:-1, 1:], node[1:, 1:], node[1:, :-1]], axis=-1)
         return vertices, quads.reshape(-1, 4)
 
-    def _frame_vectors(self, u, v, step=1e-4):
+    def frame_vectors(self, u, v, step=1e-4):
         d_u = (self.point(u + step, v) - self.point(u - step, v)) / (2 * step)
         d_v = (self.point(u, v + step) - self.point(u, v - step)) / (2 * step)
         normal = _unit(np.cross(d_u, d_v))
@@ -120,7 +120,7 @@ class ParametricSurface:
         tangent_u = np.cross(tangent_v, normal)
         return tangent_u, tangent_v, normal
 
-    def _normal_curvature(self, u, v, du, dv, normal, step=1e-3):
+    def normal_curvature(self, u, v, du, dv, normal, step=1e-3):
         ahead = self.point(u + du * step, v + dv * step)
         behind = self.point(u - du * step, v - dv * step)
         middle = self.point(u, v)

@@ -68,12 +68,12 @@ from flectofold_model.environment.sun import Site, solar_position
 from flectofold_model.environment.weather import (into_reference_year, REFERENCE_YEAR,
                                                   site_distance_deg, Weather, weather_at)
 from flectofold_model.facade.footprint import footprint_weights, representative_panel
-from flectofold_model.scheduling.day_report import _interpolate, CANDIDATE_CLOSURES
+from flectofold_model.scheduling.day_report import CANDIDATE_CLOSURES, interpolate
 from flectofold_model.scheduling.facade_schedule import full_close_air_nl, scheduler_parameters
 from flectofold_model.scheduling.frontier import ClosureProblem, frontier, limit_at, Limits
-from flectofold_model.scheduling.predictive import (DEFAULT_CONTROLLER, PlanInputs,
-                                                    PredictiveController,
-                                                    PredictiveParameters)
+from flectofold_model.scheduling.predictive import DEFAULT_CONTROLLER, PlanInputs
+from flectofold_model.scheduling.report_common import (limit_gaps, OTHER_ROW,
+                                                       predictive_desired)
 from flectofold_model.scheduling.scheduler import Reason, Scheduler
 from flectofold_model.shading.ray_casting import choose_candidate, SUNLIT_MIN_SZ
 from flectofold_model.shading.table import ShadingTable
@@ -81,8 +81,6 @@ from flectofold_model.shading.table import ShadingTable
 #: The rows of the report with the default controller (``target rule`` becomes
 #: ``predictive`` on a facade that runs the target rule).
 STRATEGIES = ('scheduled', 'target rule', 'threshold', 'always open', 'always closed', 'limit')
-#: The row of the controller the facade does not run, beside ``scheduled``.
-OTHER_ROW = {'predictive': 'predictive', 'target': 'target rule'}
 #: The threshold family: ``on`` thresholds [W/m2] and ``off / on`` ratios swept.
 THRESHOLD_ON_W_M2 = (100.0, 200.0, 300.0, 400.0, 500.0)
 THRESHOLD_OFF_RATIOS = (0.5, 0.8)
@@ -370,8 +368,8 @@ def annual_report(facade, weather, first_date=None, last_date=None, step_min=60,
                         clear_dni_w_m2=clear, step_h=np.full(count, step_s / 3600.0))
     target_desired = _desired(facade, blocked, table.view, sunlit, step_s)
     controllers = {
-        'predictive': (lambda: _predictive_desired(facade, table, inputs, sampled['dni_w_m2'],
-                                                   step_s, parameters), None),
+        'predictive': (lambda: predictive_desired(facade, table, inputs, sampled['dni_w_m2'],
+                                                  step_s, parameters), None),
         'target': (lambda: target_desired, sampled['dni_w_m2'])}
     other = 'target' if controller == 'predictive' else 'predictive'
     strategies, runs = [], {}
@@ -399,7 +397,7 @@ def annual_report(facade, weather, first_date=None, last_date=None, step_min=60,
     strategies.append(dataclasses.replace(
         _figures(context, 'limit', limit_run),
         view_weighted_hours_h=limit.view_weighted_upper_h))
-    gaps = {s.name: _gaps(problem, limits, s) for s in strategies}
+    gaps = {s.name: limit_gaps(problem, limits, s) for s in strategies}
     families = ()
     if families_wanted:
         families = _families(context, problem, limits, parameters, wind, sampled, facade,
@@ -615,27 +613,6 @@ def _run_scheduler(context, parameters, desired, dni, wind, report_share):
                 latched_s=latched_s)
 
 
-def _predictive_desired(facade, table, inputs, dni, step_s, parameters):
-    """Make the predictive controller's decisions, one per step, from what is known then.
-
-    The step's own DNI is the measurement (as the threshold rule and the target rule's DNI
-    gate take it); the steps ahead are forecast from it (:mod:`.predictive`).
-    """
-    settings = PredictiveParameters.of(facade.control)
-    controller = PredictiveController(table.closures, table.view, full_close_air_nl(facade),
-                                      settings, deadband=parameters.deadband)
-    horizon = settings.steps(step_s)
-
-    def desired(i, closure_now):
-        ahead = slice(i, i + horizon)
-        window = PlanInputs(cos_incidence=inputs.cos_incidence[ahead],
-                            blocked=inputs.blocked[ahead], daylight=inputs.daylight[ahead],
-                            clear_dni_w_m2=inputs.clear_dni_w_m2[ahead],
-                            step_h=inputs.step_h[ahead])
-        return controller.desired(closure_now, window, dni_now_w_m2=dni[i])
-    return desired
-
-
 @dataclass(frozen=True)
 class FamilyMember:
     """One member of a baseline family and its figures."""
@@ -675,22 +652,6 @@ def _limit_run(problem, limits, schedule, scheduled):
                 latched=scheduled.latched, latched_s=scheduled.latched_s)
 
 
-def _gaps(problem, limits, figures):
-    """Return the gaps [h] with and without the scheduler's limits at ``figures``'s blocking.
-
-    NaN where no schedule within them blocks as much.
-    """
-    gaps = []
-    for bound in (limits, None):
-        try:
-            limit = limit_at(problem, figures.blocked_direct_kwh_m2, bound)
-        except ValueError:
-            gaps.append(math.nan)
-            continue
-        gaps.append(limit.view_weighted_upper_h - figures.view_weighted_hours_h)
-    return tuple(gaps)
-
-
 def _dominates(a, b):
     """Return whether ``a`` is as good as ``b`` in blocking, view and moves, better in one."""
     at_least = (a.blocked_direct_kwh_m2 >= b.blocked_direct_kwh_m2
@@ -722,7 +683,7 @@ def _next_call(scheduler, result, now, period_s):
 
 def _figures(context, name, run):
     dt_h = context.step_s / 3600.0
-    achieved = _interpolate(context.blocked, run.closure)
+    achieved = interpolate(context.blocked, run.closure)
     blocked = _per_panel_mean(context.direct * achieved * dt_h / 1000.0, context.weights)
     incident = float(np.sum(context.direct @ context.weights) * dt_h / 1000.0)
     view = np.interp(run.closure, CANDIDATE_CLOSURES, context.view)

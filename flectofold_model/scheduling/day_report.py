@@ -50,6 +50,8 @@ from flectofold_model.kinematics.kinds import fold_model_of
 from flectofold_model.scheduling.facade_schedule import full_close_air_nl, scheduler_parameters
 from flectofold_model.scheduling.frontier import ClosureProblem, frontier, limit_at, Limits
 from flectofold_model.scheduling.predictive import DEFAULT_CONTROLLER, PlanInputs
+from flectofold_model.scheduling.report_common import (limit_gaps, OTHER_ROW,
+                                                       predictive_desired)
 from flectofold_model.scheduling.scheduler import Scheduler
 from flectofold_model.shading.ray_casting import blocked_fraction, choose_candidate, view_fraction
 
@@ -186,10 +188,6 @@ def simulate_day(facade, date_iso, step_s=300.0, samples=24, progress=None):
     lines, see :mod:`.shading`). ``progress``: called with a line of text before each long
     step.
     """
-    # annual_report imports this module: its helpers are taken here, not at import time.
-    from flectofold_model.scheduling.annual_report import (_gaps, _predictive_desired,
-                                                           OTHER_ROW)
-
     say = progress or (lambda text: None)
     # The instants of the day: midnight + k step_s, each the start of its step (the
     # scheduler decides there and the sun then holds for the step).
@@ -219,12 +217,12 @@ def simulate_day(facade, date_iso, step_s=300.0, samples=24, progress=None):
     window = int(round(facade.control.get('look_ahead_s', 0.0) / step_s))
     inputs = PlanInputs(cos_incidence=cos_incidence, blocked=blocked, daylight=daylight,
                         clear_dni_w_m2=dni, step_h=np.full(len(epochs), step_s / 3600.0))
-    # _predictive_desired reads only a shading table's closures and view
+    # predictive_desired reads only a shading table's closures and view
     table = SimpleNamespace(closures=CANDIDATE_CLOSURES, view=mean_view)
     runs = {
         'target': lambda: _schedule(facade, parameters, epochs,
                                     _desired(blocked, view, sunlit, target, window), dni),
-        'predictive': lambda: _schedule(facade, parameters, epochs, _predictive_desired(
+        'predictive': lambda: _schedule(facade, parameters, epochs, predictive_desired(
             facade, table, inputs, dni, step_s, parameters), None)}
     weight = np.where(sunlit, dni[:, None] * np.clip(sun_panel[..., 2], 0, None), 0.0)
     outcomes, closures = {}, {}
@@ -232,9 +230,9 @@ def simulate_day(facade, date_iso, step_s=300.0, samples=24, progress=None):
         closure, filling, air = runs[name]()
         closures[names[name]] = closure
         outcomes[names[name]] = Outcome(
-            blocked_direct_fraction=_weighted(_interpolate(blocked, closure), weight),
-            view_fraction=float(np.mean(_interpolate(np.broadcast_to(view, blocked.shape),
-                                                     closure)[daylight])),
+            blocked_direct_fraction=_weighted(interpolate(blocked, closure), weight),
+            view_fraction=float(np.mean(interpolate(np.broadcast_to(view, blocked.shape),
+                                                    closure)[daylight])),
             actuations_per_panel=float(np.mean(_moves(closure))), air_nl=float(np.sum(air)),
             peak_fills=int(np.max(np.sum(filling, axis=1))))
     full_close = full_close_air_nl(facade)
@@ -255,7 +253,7 @@ def simulate_day(facade, date_iso, step_s=300.0, samples=24, progress=None):
     step_h = step_s / 3600.0
     incident = float(np.sum(problem.direct_w_m2 @ weights) * step_h / 1000.0)
     daylight_h = float(np.sum(daylight) * step_h)
-    gaps = {name: _fractions(0.0, _gaps(problem, limits, figure)[0], incident, daylight_h)[1]
+    gaps = {name: _fractions(0.0, limit_gaps(problem, limits, figure)[0], incident, daylight_h)[1]
             for name, figure in figures.items()}
     try:
         limit = limit_at(problem, figures['scheduled'].blocked_direct_kwh_m2, limits)
@@ -279,7 +277,7 @@ def simulate_day(facade, date_iso, step_s=300.0, samples=24, progress=None):
         date=date_iso, local_hours=(epochs - epochs[0]) / 3600.0,
         elevation_deg=np.degrees(position.apparent_elevation_rad), dni_w_m2=dni,
         closure=closures['scheduled'],
-        blocked=np.where(sunlit, _interpolate(blocked, closures['scheduled']), 0.0),
+        blocked=np.where(sunlit, interpolate(blocked, closures['scheduled']), 0.0),
         sunlit=sunlit, blocked_open=blocked[..., 0], blocked_closed=blocked[..., -1],
         scheduled=outcomes['scheduled'], always_open=baselines[0],
         always_closed=baselines[1], controller=controller, other_name=names[other],
@@ -290,7 +288,7 @@ def simulate_day(facade, date_iso, step_s=300.0, samples=24, progress=None):
 
 @dataclass(frozen=True)
 class _Figures:
-    """A row's figures as the limit weighs them, named as :func:`.annual_report._gaps` reads."""
+    """A row's figures as the limit weighs them, named as :func:`.limit_gaps` reads."""
 
     blocked_direct_kwh_m2: float
     view_weighted_hours_h: float
@@ -316,7 +314,7 @@ def _problem_figures(problem, closure):
     by at most 7e-4 (blocked) and 5e-4 (view).
     """
     step_h = problem.step_s / 3600.0
-    blocked = _interpolate(problem.blocked, closure)
+    blocked = interpolate(problem.blocked, closure)
     energy = np.sum((problem.direct_w_m2 * blocked) @ problem.weights) * step_h / 1000.0
     view = np.interp(closure, problem.closures, problem.view)
     hours = np.sum((view * problem.daylight[:, None]) @ problem.weights) * step_h
@@ -382,7 +380,7 @@ def _schedule(facade, parameters, epochs, desired, dni):
     return np.array(closure), np.array(filling), np.array(air)
 
 
-def _interpolate(table, closure):
+def interpolate(table, closure):
     """Values of a (T, N, C) table at closures (T, N), linear between candidates."""
     position = closure / (CANDIDATE_CLOSURES[1] - CANDIDATE_CLOSURES[0])
     lower = np.clip(np.floor(position).astype(int), 0, CANDIDATE_CLOSURES.size - 2)

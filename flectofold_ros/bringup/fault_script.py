@@ -12,8 +12,9 @@ and returns its :class:`TimedFault` entries in time order;
 :class:`~flectofold_ros.bringup.fault_script_node.FaultScriptNode` publishes each on
 ``/facade/inject_fault`` when the ROS clock (``use_sim_time``) reaches it. Pure (no rclpy).
 
-The YAML is read with the safe loader, without aliases or anchors, within a size bound, and
-with ``12:30`` read as text: YAML 1.1 would read it as the number 750.
+The YAML is read with :func:`flectofold_model.safe_yaml.load_yaml`, the loader of all user
+YAML, with the rules a script asks for: no aliases or anchors, at most :data:`MAX_CHARACTERS`,
+decimal numbers only, so that ``12:30`` is text (YAML 1.1 would read the number 750).
 """
 
 from dataclasses import dataclass
@@ -22,9 +23,7 @@ import math
 from numbers import Real
 import re
 
-import yaml
-
-from flectofold_model.safe_yaml import UniqueKeys, YAMLInputError
+from flectofold_model.safe_yaml import load_yaml, YAMLInputError
 from flectofold_ros.fault_injection import FaultRequest, FaultRequestError, parse_request
 
 #: Longest script accepted [characters] and most entries.
@@ -65,21 +64,11 @@ def load_fault_script(path, facade_ids, start_epoch_s, end_epoch_s, utc_offset_h
 
 def load_document(text, source='fault script'):
     """Return the plain value of a YAML document, refusing aliases, anchors and size."""
-    if len(text) > MAX_CHARACTERS:
-        raise FaultScriptError(f'{source}: longer than {MAX_CHARACTERS} characters')
-    loader = _ScriptLoader(text)
-    loader._source = source
     try:
-        return loader.get_single_data()
+        return load_yaml(text, source, max_characters=MAX_CHARACTERS, anchors=False,
+                         decimal_numbers=True)
     except YAMLInputError as error:
         raise FaultScriptError(str(error)) from None
-    except yaml.YAMLError as error:
-        mark = getattr(error, 'problem_mark', None)
-        where = f'line {mark.line + 1}: ' if mark is not None else ''
-        reason = getattr(error, 'problem', None) or error
-        raise FaultScriptError(f'{source}: {where}{reason}') from None
-    finally:
-        loader.dispose()
 
 
 def parse_fault_script(document, facade_ids, start_epoch_s, end_epoch_s, utc_offset_h,
@@ -146,27 +135,3 @@ class _Day:
                 return (moment - self.start).total_seconds()
         raise FaultRequestError(f'at {at} lies outside the day {self.start:%H:%M:%S} .. '
                                 f'{self.end:%H:%M:%S}')
-
-
-class _ScriptLoader(UniqueKeys, yaml.SafeLoader):
-    """The safe loader without aliases, anchors, twice-given keys or YAML 1.1's sexagesimals."""
-
-    def compose_node(self, parent, index):
-        event = self.peek_event()
-        if isinstance(event, yaml.AliasEvent) or getattr(event, 'anchor', None):
-            raise yaml.YAMLError(f'line {event.start_mark.line + 1}: YAML anchors and '
-                                 f'aliases (&name, *name) are not accepted; write values out')
-        return super().compose_node(parent, index)
-
-
-_ScriptLoader.yaml_implicit_resolvers = {
-    first: [(tag, pattern) for tag, pattern in resolvers
-            if tag not in ('tag:yaml.org,2002:int', 'tag:yaml.org,2002:float')]
-    for first, resolvers in yaml.SafeLoader.yaml_implicit_resolvers.items()}
-_ScriptLoader.add_implicit_resolver('tag:yaml.org,2002:int', re.compile(r'^[-+]?[0-9]+$'),
-                                    list('-+0123456789'))
-_ScriptLoader.add_implicit_resolver(
-    'tag:yaml.org,2002:float',
-    re.compile(r'^[-+]?(?:[0-9]+\.[0-9]*|\.[0-9]+|[0-9]+)(?:[eE][-+]?[0-9]+)?$'
-               r'|^[-+]?\.(?:inf|Inf|INF)$|^\.(?:nan|NaN|NAN)$'),
-    list('-+0123456789.'))

@@ -26,7 +26,7 @@ import numpy as np
 
 from flectofold_model._validate import in_range, real_array
 from flectofold_model.actuation.circuit import DEMONSTRATOR_PLANT
-from flectofold_model.control.hardware import _openings, CushionDriver
+from flectofold_model.control.hardware import CushionDriver, openings
 from flectofold_ros.hardware.register_map import RegisterMap
 
 #: Exchanges whose timing the driver keeps for its statistics (about 100 s at 10 Hz).
@@ -156,8 +156,8 @@ class ModbusCushions(CushionDriver):
         Nothing is written while comms are lost. A setpoint beyond a regulator's range is
         written as its nearest end.
         """
-        fill = _openings('fill_opening', fill_opening, self.count)
-        vent = _openings('vent_opening', vent_opening, self.count)
+        fill = openings('fill_opening', fill_opening, self.count)
+        vent = openings('vent_opening', vent_opening, self.count)
         setpoint = np.broadcast_to(real_array('regulator_gauge_pa', regulator_gauge_pa),
                                    (self.count,))
         self._regulator_gauge_pa = in_range('regulator_gauge_pa', setpoint, 0.0,

@@ -444,7 +444,7 @@ class PanelProcess:
     def _publish_first_state(self, now_s):
         # As soon as the process knows the time, also while a bringup holds its clock at the
         # start of the day (then the loop runs no period and keeps no state): the panels are up.
-        closure, fold_angle = self.loops._current_feedback()
+        closure, fold_angle = self.loops.current_feedback()
         sample = LoopSample(0, now_s, closure, fold_angle, self.loops.measured_pa,
                             self.loops.controller.active)
         self._publish_facade_state(_stamp(now_s), sample)
@@ -530,7 +530,7 @@ class PanelProcess:
             level, message = diagnostics.WARN, f'simulated fault injected: {injected}'
         if fault is not Fault.NONE:
             level, message = diagnostics.ERROR, f'circuit fault: {fault.value}'
-        closure, fold_angle = loops._current_feedback()
+        closure, fold_angle = loops.current_feedback()
         figures = {
             'setpoint': guard.last_valid, 'tracked_closure': float(self._setpoints[index]),
             'closure': float(closure[index]), 'fold_angle_rad': float(fold_angle[index]),

@@ -20,7 +20,8 @@ starting_time, duration, message_count) and sums ``topics_with_message_count`` o
 registered topics are listed, with count 0 if none of their messages is in a closed segment yet.
 It is written at creation (no files, no topics), and rewritten each time a
 segment closes, after the segment's ``.mcap`` was moved out of the working directory; every
-write is atomic (temp file, fsync, ``os.replace``).
+write is atomic (temp file, fsync, ``os.replace``). It is written and read here with PyYAML's
+safe dumper and loader (libyaml's where present): :func:`write_metadata`, :func:`read_metadata`.
 
 rosbags' ``Reader`` (checked with rosbags 0.11.9) opens such a directory as one bag: it reads
 ``metadata.yaml``, opens every file of ``relative_file_paths`` (all must exist) and ignores any
@@ -65,6 +66,7 @@ bags.
 
 import errno
 import fcntl
+import functools
 import heapq
 import math
 import os
@@ -79,7 +81,6 @@ from rosbags.rosbag2 import Reader, StoragePlugin, Writer
 from rosbags.rosbag2.metadata import dump_qos_v9
 from rosbags.rosbag2.storage_mcap import McapWriter
 from rosbags.typesys import get_typestore, Stores
-from ruamel.yaml import YAML
 import yaml
 
 BAG_VERSION = 9
@@ -170,7 +171,7 @@ def _reason(err: OSError) -> str:
     return err.strerror or errno.errorcode.get(err.errno or 0, '') or str(err)
 
 
-def _fsync_dir(path: Path) -> None:
+def fsync_dir(path: Path) -> None:
     """Make a rename inside ``path`` durable (best effort)."""
     try:
         fd = os.open(path, os.O_RDONLY)
@@ -446,7 +447,7 @@ class SegmentedBagWriter:
         with source.open('rb') as stream:
             os.fsync(stream.fileno())
         os.replace(source, self._path / file_name)
-        _fsync_dir(self._path)
+        fsync_dir(self._path)
         self._closed.append(Segment(file_name, self._seg_start_ns, self._seg_end_ns,
                                     dict(self._seg_counts)))
         self._seg_counts = {}
@@ -524,7 +525,7 @@ def write_metadata(path: Path, segments: list[Segment], topics: dict[str, Record
         stream.flush()
         os.fsync(stream.fileno())
     os.replace(temp, target)
-    _fsync_dir(path)
+    fsync_dir(path)
 
 
 def _metadata(segments: list[Segment], topics: dict[str, RecordedTopic],
@@ -577,6 +578,36 @@ def _file_entry(segment: Segment) -> dict:
 
 
 # -- reading -------------------------------------------------------------------------------------
+
+
+@functools.lru_cache(maxsize=1)
+def _bag_loader() -> type:
+    """Return PyYAML's safe loader class, refusing a mapping that gives one key twice.
+
+    Made on first use: the rule lives in ``flectofold_model.safe_yaml``, and importing
+    ``flectofold_model`` takes about a second that a recorder's start, which reads no YAML,
+    should not spend.
+    """
+    from flectofold_model.safe_yaml import UniqueKeys
+    return type('BagLoader', (UniqueKeys, yaml.SafeLoader), {'_source': METADATA})
+
+
+def load_bag_yaml(text: str):
+    """Parse YAML of a bag (its metadata.yaml, a channel's offered QoS profiles).
+
+    With PyYAML's safe loader, the library :func:`write_metadata` writes with, refusing a key
+    given twice (:class:`~flectofold_model.safe_yaml.DuplicateKeyError`: one value would
+    silently win); the pure-Python composer, as libyaml's cannot be told to refuse them.
+    """
+    return yaml.load(text, Loader=_bag_loader())
+
+
+def read_metadata(path: Path):
+    """Return the parsed ``metadata.yaml`` of the bag directory at ``path``, as written.
+
+    Raises what reading and parsing raise (``OSError``, ``yaml.YAMLError``, ...).
+    """
+    return load_bag_yaml((path / METADATA).read_text())
 
 
 def _open_reader(path: PathLike) -> Reader:
@@ -643,11 +674,11 @@ def _topics_of(files: list[Path]) -> dict[str, tuple[str, bool]]:
     for file in files:
         with Reader(file) as reader:
             for conn in reader.connections:
-                topics.setdefault(conn.topic, (conn.msgtype, _is_latched(conn)))
+                topics.setdefault(conn.topic, (conn.msgtype, is_latched(conn)))
     return topics
 
 
-def _is_latched(conn: Connection) -> bool:
+def is_latched(conn: Connection) -> bool:
     ext = conn.ext
     profiles = ext.offered_qos_profiles if isinstance(ext, ConnectionExtRosbag2) else []
     return any(p.durability == QosDurability.TRANSIENT_LOCAL for p in profiles)
@@ -672,7 +703,7 @@ def bag_topics(path: PathLike, skip_unreadable: bool = False) -> dict[str, tuple
         return _topics_of(files)
     reader = _open_reader(path)
     try:
-        return {conn.topic: (conn.msgtype, _is_latched(conn)) for conn in reader.connections}
+        return {conn.topic: (conn.msgtype, is_latched(conn)) for conn in reader.connections}
     finally:
         reader.close()
 
@@ -699,7 +730,7 @@ def require_topics(path: PathLike, have: Iterable[str], wanted: Iterable[str]) -
 
 def _segment_files(path: Path) -> list[Path]:
     """Storage files of a bag directory, from its metadata.yaml."""
-    info = YAML(typ='safe').load((path / 'metadata.yaml').read_text())
+    info = read_metadata(path)
     return [path / Path(name).name
             for name in info['rosbag2_bagfile_information']['relative_file_paths']]
 
@@ -836,14 +867,13 @@ def _load_metadata(bag: Path, problems: list[str]) -> dict:
         problems.append('not a bag directory' if bag.exists() else 'does not exist')
         return {}
     try:
-        info = YAML(typ='safe').load((bag / METADATA).read_text())
-        info = info['rosbag2_bagfile_information']
+        info = read_metadata(bag)['rosbag2_bagfile_information']
         if not isinstance(info, dict):
             raise TypeError('rosbag2_bagfile_information is not a mapping')
         return info
     except FileNotFoundError:
         problems.append(f'{METADATA} is missing')
-    except Exception as err:  # ruamel raises many types; a corrupt file is a finding here
+    except Exception as err:  # PyYAML raises many types; a corrupt file is a finding here
         problems.append(f'{METADATA} cannot be read: {err}')
     return {}
 

@@ -29,11 +29,11 @@ from mcap.records import Channel, Message, Schema
 from mcap.stream_reader import StreamReader
 from rosbags.rosbag2 import Reader
 from rosbags.typesys import get_typestore, Stores
-from ruamel.yaml import YAML
 
 from flectofold_ros.recording.bag_segments import (
-    _fsync_dir, _is_latched, BagError, lock_bag, METADATA, PathLike, RecordedTopic, Segment,
-    segment_files, segment_index, SegmentedBagWriter, unfinished_segment, write_metadata)
+    BagError, fsync_dir, is_latched, load_bag_yaml, lock_bag, METADATA, PathLike, read_metadata,
+    RecordedTopic, Segment, segment_files, segment_index, SegmentedBagWriter, unfinished_segment,
+    write_metadata)
 
 #: Hidden directory where a recovered segment is written before it joins the bag.
 RECOVERY_DIR = '.reindex'
@@ -124,7 +124,7 @@ def reindex(path: PathLike) -> ReindexReport:
 def _listed_files(bag: Path) -> list[str]:
     """Segment files the bag's metadata.yaml lists now (none if it has none or is unreadable)."""
     try:
-        info = YAML(typ='safe').load((bag / METADATA).read_text())
+        info = read_metadata(bag)
         return [Path(name).name for name in
                 info['rosbag2_bagfile_information']['relative_file_paths']]
     except Exception:  # no metadata, or one that does not parse: nothing listed to keep
@@ -174,7 +174,7 @@ def _recover(bag: Path, source: Path) -> Recovered:
         # reindex cut short recovers it from there, once.
         target = _next_segment(bag)
         os.replace(source, target)
-        _fsync_dir(bag)
+        fsync_dir(bag)
         shutil.rmtree(source.parent)
         source = target
     work = bag / RECOVERY_DIR
@@ -189,7 +189,7 @@ def _recover(bag: Path, source: Path) -> Recovered:
         os.replace(written, source)
     else:
         source.unlink()  # its one other name, in the set-aside directory, keeps it
-    _fsync_dir(bag)
+    fsync_dir(bag)
     shutil.rmtree(work)
     return Recovered(origin, source.name if count else None, count, truncated, skipped,
                      str(aside.relative_to(bag)))
@@ -215,7 +215,7 @@ def _set_aside(bag: Path, file: Path) -> Path:
         number += 1
         kept = folder / f'{file.stem}.{number}{file.suffix}'
     os.link(file, kept)
-    _fsync_dir(folder)
+    fsync_dir(folder)
     return kept
 
 
@@ -264,7 +264,7 @@ def _add_channel(channel: Channel, schemas: dict[int, Schema], writer: Segmented
 def _offered_latched(channel: Channel) -> bool:
     """Whether the channel's recorded offered QoS is transient local."""
     try:
-        profiles = YAML(typ='safe').load(channel.metadata.get('offered_qos_profiles', '')) or []
+        profiles = load_bag_yaml(channel.metadata.get('offered_qos_profiles', '')) or []
         return any(str(profile.get('durability')) in ('transient_local', '1')
                    for profile in profiles)
     except Exception:  # a profile that does not parse is recorded volatile
@@ -281,7 +281,7 @@ def _scan(bag: Path) -> tuple[list[Segment], dict[str, RecordedTopic], dict[str,
             counts: dict[str, int] = {}
             for conn in reader.connections:
                 counts[conn.topic] = counts.get(conn.topic, 0) + conn.msgcount
-                topics.setdefault(conn.topic, RecordedTopic(conn.msgtype, _is_latched(conn)))
+                topics.setdefault(conn.topic, RecordedTopic(conn.msgtype, is_latched(conn)))
             if reader.message_count:
                 segments.append(Segment(name, reader.start_time, reader.end_time - 1, counts))
     digests = {name: typestore.hash_rihs01(topic.msgtype)

@@ -73,13 +73,13 @@ def test_cushion_map_interpolates_the_model(model, table):
 
 def test_a_non_monotone_map_is_refused(monkeypatch, model):
     """A panel that would snap through cannot be tabulated (CushionMap checks the tables)."""
-    original = hexagon_statics.HexagonActuationModel._pressure
+    original = hexagon_statics.HexagonActuationModel.pressure
 
     def snapping(self, rise, index):
         pressure = original(self, rise, index)
         middle = (self.fold.open_shape[index] + self.fold.closed_shape[index]) / 2
         return np.where(rise > middle, 0.5 * pressure, pressure)
 
-    monkeypatch.setattr(hexagon_statics.HexagonActuationModel, '_pressure', snapping)
+    monkeypatch.setattr(hexagon_statics.HexagonActuationModel, 'pressure', snapping)
     with pytest.raises(ValueError, match='not monotone'):
         CushionMap(model, samples=33)

@@ -73,14 +73,14 @@ def test_equilibrium_is_stable_along_the_path(model):
 def test_cushion_work_equals_stored_energy(model):
     """Virtual work: integral of p dV from open to closed equals the elastic energy stored."""
     rises = path(model, 4001)
-    pressure, volume = along(model, model._pressure, rises), along(model, model._volume, rises)
+    pressure, volume = along(model, model.pressure, rises), along(model, model.volume, rises)
     work = np.sum((pressure[1:] + pressure[:-1]) / 2 * np.diff(volume))
     assert work == pytest.approx(model.actuation_energy_j[0], rel=2e-4)
 
 
 def test_cushion_volume_grows_with_closure(model):
     rises = path(model, 201)
-    volume = along(model, model._volume, rises)
+    volume = along(model, model.volume, rises)
     assert np.all(np.diff(volume) > 0)
     contact = model.cushion_contact_area_m2(model.fold.closed_shape)
     assert 0 < contact[0] < model.cushion_contact_area_m2(model.fold.open_shape)[0]
@@ -163,7 +163,7 @@ def test_hinge_energy_matches_an_independent_line_integral():
 
 def test_open_state_is_stress_free_and_energy_grows(model):
     rises = path(model, 51)
-    energy = along(model, model._energy, rises)
+    energy = along(model, model.energy, rises)
     assert energy[0] == pytest.approx(0.0, abs=1e-12)
     assert np.all(np.diff(energy) > 0)
 

@@ -14,6 +14,7 @@ import textwrap
 import numpy as np
 import pygltflib
 import pytest
+from setup_script import console_scripts
 import trimesh
 
 from flectofold_model.facade import load_facade
@@ -51,8 +52,7 @@ def read_obj(path):
 
 def test_facade_export_is_an_executable_stopped_like_a_command():
     assert EXECUTABLES['facade_export'] == ('flectofold_ros.commands.facade_export', 130)
-    setup = (ROOT / 'setup.py').read_text()
-    assert "'facade_export = flectofold_ros.executables:facade_export'" in setup
+    assert console_scripts()['facade_export'] == 'flectofold_ros.executables:facade_export'
 
 
 def test_obj_has_one_object_per_panel_in_site_coordinates(tmp_path):

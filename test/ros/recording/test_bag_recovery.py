@@ -232,6 +232,23 @@ def test_check_bag_of_no_bag(tmp_path, make, reason):
     assert not check.complete and reason in check.summary()
 
 
+def test_a_metadata_file_that_gives_a_key_twice_is_a_finding_not_a_silent_choice(tmp_path):
+    bag = killed_bag(tmp_path / 'killed', 355)
+    reindex(bag)
+    assert check_bag(bag).complete
+    metadata = bag / 'metadata.yaml'
+    lines = metadata.read_text().splitlines(keepends=True)
+    # A second message_count right after the first: one of them would silently win.
+    at = next(i for i, line in enumerate(lines) if line.lstrip().startswith('message_count:'))
+    indent = lines[at][:len(lines[at]) - len(lines[at].lstrip())]
+    lines.insert(at + 1, f'{indent}message_count: 1\n')
+    metadata.write_text(''.join(lines))
+    check = check_bag(bag)
+    assert not check.complete
+    assert any("key 'message_count' given twice" in problem for problem in check.problems), \
+        check.problems
+
+
 def test_a_bag_being_written_is_not_reindexed(tmp_path):
     writer = SegmentedBagWriter(tmp_path / 'live')
     writer.add_topic('/setpoint', FLOAT)
