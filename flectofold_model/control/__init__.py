@@ -7,8 +7,7 @@
   simulation;
 - :mod:`.regulator`: pressure setpoints for channels that a proportional pressure regulator
   drives (:class:`RegulatorSetpoints`);
-- :mod:`.panel_loops`: the loops of the panels one process hosts (:class:`PanelLoops`), each
-  panel's handle on them (:class:`LoopRow`);
+- :mod:`.panel_loops`: the loops of the panels one process hosts (:class:`PanelLoops`);
 - :mod:`.loop_kernel`, :mod:`.simulation_kernel`: the compiled loop (its one implementation)
   and the compiled simulation of many periods of loops and plant;
 - :mod:`.decimation`: which states to publish (:class:`PublishDecimator`);
@@ -19,16 +18,15 @@ from flectofold_model.control.decimation import PublishDecimator
 from flectofold_model.control.hardware import CushionDriver, SimulatedCushions
 from flectofold_model.control.loop_simulation import LoopTrace, simulate, step_metrics, StepMetrics
 from flectofold_model.control.panel_loops import (compile_kernels, facade_loops, LoopAdvance,
-                                                  LoopRow, panel_indices, PanelLoops, RowSample)
+                                                  panel_indices, PanelLoops)
 from flectofold_model.control.pressure_loop import (ControllerParameters, Fault,
                                                     PressureController, SafeAction, ValveCommand)
 from flectofold_model.control.regulator import RegulatorSetpoints
 from flectofold_model.control.setpoint_guard import SafeBehaviour, SetpointGuard, SetpointState
 
 __all__ = [
-    'ControllerParameters', 'CushionDriver', 'Fault', 'LoopAdvance', 'LoopRow', 'LoopTrace',
-    'PanelLoops', 'PressureController', 'PublishDecimator', 'RegulatorSetpoints', 'RowSample',
-    'SafeAction', 'SafeBehaviour', 'SetpointGuard', 'SetpointState', 'SimulatedCushions',
-    'StepMetrics', 'ValveCommand', 'compile_kernels', 'facade_loops', 'panel_indices', 'simulate',
-    'step_metrics',
+    'ControllerParameters', 'CushionDriver', 'Fault', 'LoopAdvance', 'LoopTrace', 'PanelLoops',
+    'PressureController', 'PublishDecimator', 'RegulatorSetpoints', 'SafeAction', 'SafeBehaviour',
+    'SetpointGuard', 'SetpointState', 'SimulatedCushions', 'StepMetrics', 'ValveCommand',
+    'compile_kernels', 'facade_loops', 'panel_indices', 'simulate', 'step_metrics',
 ]

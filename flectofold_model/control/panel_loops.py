@@ -7,10 +7,13 @@ it runs whole control periods and advances the simulation by each, catching up h
 the clock jumped, so a sped-up or stalled ROS clock changes nothing in the physics; against
 real hardware it runs one period per call with the time that actually passed.
 
-Each panel's node works through its :class:`LoopRow` (:meth:`PanelLoops.row`): it sets its
-setpoint, asks for states at its publish period, reads the states kept since the last one it
-took and its feedback. Every row operation costs the same whatever the number of panels and
-however long the loop has run.
+A panel process calls the loops' own methods, with a panel index where one panel is meant:
+it sets the setpoints (:meth:`PanelLoops.set_setpoints`), asks for states at its publish
+period (:meth:`PanelLoops.request_sample_period`), takes the states kept since the last one
+it took (:meth:`PanelLoops.samples_since`), reads the feedback
+(:meth:`PanelLoops.current_feedback`) and resets a panel's fault
+(:meth:`PanelLoops.reset_faults`). Taking states costs the number taken, however long the
+loop has run.
 """
 
 from collections import deque
@@ -34,7 +37,7 @@ from flectofold_model.control.pressure_loop import (ControllerParameters, Fault,
 from flectofold_model.control.regulator import RegulatorSetpoints
 from flectofold_model.structure.facade_map import facade_cushion_map
 
-#: States a loop keeps for its rows: rows that take them at least this often lose none.
+#: States a loop keeps: nodes that take them at least this often lose none.
 SAMPLE_HISTORY = 4096
 #: Panel-periods one call of the compiled simulation runs at most (10-20 ms of work), so that a
 #: loop with a deadline looks at the clock often enough.
@@ -67,18 +70,6 @@ class LoopSample:
     active: np.ndarray
     """Whether the loop was moving each panel (a valve open or its pressure reference still
     ramping to the target) in the period the state ends; False while it rests."""
-
-
-@dataclass(frozen=True)
-class RowSample:
-    """One panel's feedback at one instant of the loop's clock."""
-
-    sequence: int
-    time_s: float
-    closure: float
-    fold_angle_rad: float
-    measured_pa: float
-    """Absolute cushion pressure as measured [Pa]; NaN while the sensor gives no reading."""
 
 
 class PanelLoops:
@@ -172,14 +163,6 @@ class PanelLoops:
 
     def __len__(self):
         return self._setpoint.shape[0]
-
-    def row(self, index):
-        """Return the :class:`LoopRow` of panel ``index``: one panel's handle on these loops."""
-        if isinstance(index, bool) or not isinstance(index, (int, np.integer)) or \
-                not 0 <= index < len(self):
-            raise ValueError(f'row index must be an integer in [0, {len(self) - 1}], '
-                             f'got {index!r}')
-        return LoopRow(self, int(index))
 
     @property
     def setpoint(self):
@@ -441,103 +424,6 @@ class PanelLoops:
     def close(self):
         """Shut the valves: the panels keep their air (a held position) until vented."""
         self.driver.close()
-
-
-class LoopRow:
-    """One panel's handle on shared :class:`PanelLoops`: all its node does with them."""
-
-    def __init__(self, loops, index):
-        self.loops = loops
-        self.index = index
-
-    def set_setpoint(self, closure):
-        """Track ``closure`` in [0, 1] from the next period."""
-        if type(closure) is float and 0.0 <= closure <= 1.0:  # a node's every tick: no NaN
-            self.loops._setpoint[self.index] = closure
-        else:
-            self.loops.set_setpoints(closure, self.index)
-
-    @property
-    def setpoint(self):
-        """The closure being tracked."""
-        return float(self.loops.setpoint[self.index])
-
-    def request_sample_period(self, period_s):
-        """Have the loops keep states at least every ``period_s`` [s] for this row."""
-        self.loops.request_sample_period(self.index, period_s)
-
-    def samples_since(self, sequence, limit=None):
-        """Return this panel's :class:`RowSample` of every state kept after ``sequence``.
-
-        ``limit``: of the newest that many only.
-        """
-        i = self.index
-        return [RowSample(s.sequence, s.time_s, float(s.closure[i]), float(s.fold_angle_rad[i]),
-                          float(s.measured_pa[i]))
-                for s in self.loops.samples_since(sequence, limit)]
-
-    @property
-    def closure(self):
-        """Closure of the last period (see :attr:`PanelLoops.closure`)."""
-        return float(self.loops.current_feedback()[0][self.index])
-
-    @property
-    def fold_angle_rad(self):
-        """Apex fold angle of the last period [rad]."""
-        return float(self.loops.current_feedback()[1][self.index])
-
-    @property
-    def gauge_pa(self):
-        """Filtered cushion pressure [Pa gauge]."""
-        return float(self.loops.controller.filtered_gauge_pa[self.index])
-
-    @property
-    def target_gauge_pa(self):
-        """The loop's pressure target [Pa gauge]."""
-        return float(self.loops.controller.target_gauge_pa[self.index])
-
-    @property
-    def limited_by_supply(self):
-        """Whether a weak supply holds the target below what the setpoint needs."""
-        return bool(self.loops.controller.limited_by_supply[self.index])
-
-    @property
-    def fault(self):
-        """The latched circuit :class:`~.pressure_loop.Fault`."""
-        return self.loops.controller.fault_at(self.index)
-
-    def reset_faults(self):
-        """Clear this panel's latched circuit fault."""
-        self.loops.reset_faults([self.index])
-
-    def set_safe_action(self, action):
-        """VENT or HOLD on a latched circuit fault."""
-        self.loops.set_safe_action(action, [self.index])
-
-    @property
-    def free_air_used_nl(self):
-        """Air drawn from the supply since start [NL], NaN where the driver does not measure it."""
-        return float(self.loops.free_air_used_nl[self.index])
-
-    @property
-    def time_s(self):
-        """Clock time the loops have run up to [s]; None before the first reading."""
-        return self.loops.time_s
-
-    @property
-    def behind_s(self):
-        """Clock time the loops have yet to simulate: they cannot keep up [s]."""
-        return self.loops.behind_s
-
-    @property
-    def skipped_s(self):
-        """Clock time the loops did not simulate, in all: jumps past the catch-up limit [s]."""
-        return self.loops.skipped_s
-
-    @property
-    def sensor_noise_pa(self):
-        """Standard deviation of the cushion sensor's noise [Pa]."""
-        return self.loops.driver.circuit.sensor_noise_pa
 
 
 def _regulators(controller, driver):

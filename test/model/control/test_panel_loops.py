@@ -182,58 +182,42 @@ def test_no_samples_unless_asked(facade):
     assert not loops.samples
 
 
-# -- each panel's handle on the shared loops ----------------------------------------------------
+# -- what a panel process does with the loops --------------------------------------------------
 
-def test_a_row_sets_its_own_setpoint_only_and_refuses_bad_ones(facade):
+def test_a_setpoint_for_one_panel_changes_that_panel_only_and_bad_ones_are_refused(facade):
     loops = loops_of(facade)
-    row = loops.row(1)
-    row.set_setpoint(0.7)
+    loops.set_setpoints(0.7, 1)
     np.testing.assert_array_equal(loops.setpoint, [0.0, 0.7])
     for bad in (1.5, -0.1, float('nan'), float('inf')):
         with pytest.raises(ValueError, match='closure'):
-            row.set_setpoint(bad)
+            loops.set_setpoints(bad, 1)
     np.testing.assert_array_equal(loops.setpoint, [0.0, 0.7])
     with pytest.raises(ValueError):
-        loops.setpoint[0] = 1.0  # read-only: setpoints go through set_setpoints or a row
-    for index in (2, -1, 0.5, True):
-        with pytest.raises(ValueError, match='row index'):
-            loops.row(index)
+        loops.setpoint[0] = 1.0  # read-only: setpoints go through set_setpoints
 
 
-def test_a_row_reads_its_own_feedback(settled):
-    for index in range(len(settled)):
-        row = settled.row(index)
-        assert row.closure == settled.closure[index]
-        assert row.fold_angle_rad == settled.fold_angle_rad[index]
-        assert row.gauge_pa == settled.gauge_pa[index]
-        assert row.fault is settled.fault[index]
-        assert row.setpoint == settled.setpoint[index]
-
-
-def test_rows_take_only_the_samples_they_have_not_seen(facade):
+def test_samples_are_kept_at_the_shortest_period_asked_and_taken_once_each(facade):
     loops = loops_of(facade)
-    first, second = loops.row(0), loops.row(1)
-    first.request_sample_period(0.5)
-    second.request_sample_period(0.2)  # the loop keeps states at the shorter of the two
+    loops.request_sample_period(0, 0.5)
+    loops.request_sample_period(1, 0.2)  # the loop keeps states at the shorter of the two
     loops.set_setpoints([0.5, 0.2])
     loops.advance_to(0.0)
     loops.advance_to(10.0)
-    samples = second.samples_since(0)
+    samples = loops.samples_since(0)
     assert [s.sequence for s in samples] == list(range(1, 51))
     np.testing.assert_allclose(np.diff([s.time_s for s in samples]), 0.2, atol=1e-9)
     loops.advance_to(11.0)
-    newer = second.samples_since(samples[-1].sequence)
+    newer = loops.samples_since(samples[-1].sequence)
     assert [s.sequence for s in newer] == list(range(51, 56))
-    assert second.samples_since(newer[-1].sequence) == []
-    assert newer[-1].closure == loops.samples[-1].closure[1]
-    assert first.samples_since(50)[0].fold_angle_rad == loops.samples[-5].fold_angle_rad[0]
+    assert loops.samples_since(newer[-1].sequence) == []
+    assert newer[-1] is loops.samples[-1]
+    assert loops.samples_since(50)[0] is loops.samples[-5]
 
 
 def test_taking_samples_costs_what_is_taken_however_long_the_loop_ran(facade, monkeypatch):
     monkeypatch.setattr(panel_loops, 'SAMPLE_HISTORY', 64)
     loops = loops_of(facade)
-    row = loops.row(0)
-    row.request_sample_period(0.1)
+    loops.request_sample_period(0, 0.1)
     loops.advance_to(0.0)
     loops.advance_to(20.0)  # 200 periods: more than the history keeps
     assert len(loops.samples) == 64
@@ -247,7 +231,7 @@ def test_taking_samples_costs_what_is_taken_however_long_the_loop_ran(facade, mo
             seen.append(sample)
         return original(sample, name)
     monkeypatch.setattr(LoopSample, '__getattribute__', counting)
-    assert [s.sequence for s in row.samples_since(last - 3)] == [last - 2, last - 1, last]
+    assert [s.sequence for s in loops.samples_since(last - 3)] == [last - 2, last - 1, last]
     assert len(seen) <= 6  # the newest three looked at, not the 64 kept
 
 
@@ -255,7 +239,7 @@ def test_quiet_spans_leave_a_state_at_every_sample_time(facade):
     """At rest the loop runs long quiet periods, but never across a state that is due."""
     loops = facade_loops(facade, IDS, parameters=ControllerParameters(hold_band_pa=60.0),
                          quiet_period_s=2.0)
-    loops.row(0).request_sample_period(0.5)
+    loops.request_sample_period(0, 0.5)
     loops.advance_to(1782036000.0)  # a day-scale clock, as ROS time is
     loops.advance_to(1782036000.0 + 120.0)
     assert loops.quiet_periods_run > 0  # the panels rested (vented, open)
@@ -266,7 +250,7 @@ def test_quiet_spans_leave_a_state_at_every_sample_time(facade):
 def test_after_a_skipped_jump_the_held_state_is_kept_at_the_new_time(facade):
     loops = loops_of(facade)
     loops.max_catch_up_s = 10.0
-    loops.row(0).request_sample_period(5.0)
+    loops.request_sample_period(0, 5.0)
     loops.advance_to(0.0)
     loops.advance_to(3600.0)  # 10 s simulated, 3590 s skipped (the plant held)
     assert loops.samples[-1].time_s == pytest.approx(3600.0)
@@ -277,7 +261,7 @@ def test_after_a_skipped_jump_the_held_state_is_kept_at_the_new_time(facade):
 def test_a_loop_that_cannot_keep_up_bounds_each_call_and_says_how_far_behind(facade):
     loops = loops_of(facade, control_period_s=0.1)
     loops.max_call_s = 1e-6  # less than any run of periods takes
-    loops.row(0).request_sample_period(0.5)
+    loops.request_sample_period(0, 0.5)
     loops.set_setpoints(1.0)  # filling: every period runs
     loops.advance_to(0.0)
     advance = loops.advance_to(600.0)  # 6000 periods: far more than 1 us of work
