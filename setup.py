@@ -9,18 +9,18 @@ from setuptools import find_packages, setup
 PACKAGE = 'flectofold_ros'
 
 
-def console_scripts(path=os.path.join(PACKAGE, 'executables.py')):
-    """Return ``NAME = flectofold_ros.executables:NAME`` for each executable of ``EXECUTABLES``.
+def console_scripts(path=os.path.join(PACKAGE, 'runtime', 'executables.py')):
+    """Return ``NAME = flectofold_ros.runtime.executables:NAME`` for each of ``EXECUTABLES``.
 
-    ``flectofold_ros.executables.EXECUTABLES`` is the one list of the executables; it is read
-    from the source as a literal, since building must not import the package.
+    ``flectofold_ros.runtime.executables.EXECUTABLES`` is the one list of the executables; it is
+    read from the source as a literal, since building must not import the package.
     """
     with open(path, encoding='utf-8') as source:
         tree = ast.parse(source.read(), path)
     for statement in tree.body:
         if isinstance(statement, ast.Assign) and \
                 [getattr(target, 'id', None) for target in statement.targets] == ['EXECUTABLES']:
-            return [f'{name} = {PACKAGE}.executables:{name}'
+            return [f'{name} = {PACKAGE}.runtime.executables:{name}'
                     for name in ast.literal_eval(statement.value)]
     raise SystemExit(f'setup.py: {path} assigns no EXECUTABLES literal')
 
@@ -48,7 +48,7 @@ setup(
     description='Kinetic facade arrays of Flectofold panels on ROS 2.',
     license='Apache-2.0',
     extras_require={'test': ['pytest']},
-    # Every executable starts through flectofold_ros.executables, which takes over the stop
-    # signals before the heavy imports (see flectofold_ros/runner.py).
+    # Every executable starts through flectofold_ros.runtime.executables, which takes over the stop
+    # signals before the heavy imports (see flectofold_ros/runtime/runner.py).
     entry_points={'console_scripts': console_scripts()},
 )

@@ -20,7 +20,7 @@ group over the window, as CPU seconds per wall second ("cores", so a busy machin
 figure less than wall time would); memory is the sum of ``VmRSS`` (``/proc/<pid>/status``),
 the largest seen in the window. A probe (a child process, so its CPU is not counted with the
 panels) subscribes to ``/facade/panel_states`` (one point per panel of a process; decoded with
-:mod:`flectofold_ros.panel_states`), ``/facade/joint_states``, ``/diagnostics`` and, for a
+:mod:`flectofold_ros.wire.panel_states`), ``/facade/joint_states``, ``/diagnostics`` and, for a
 sample of up to 50 panels, ``/facade/<id>/{joint_states,pressure,closure}``: rates over the
 window; jitter = p50/p99 of |arrival interval - nominal period| of ``panel_states`` per
 publishing process, arrival as the probe's middleware stamped it (the message info; the JSON
@@ -156,8 +156,8 @@ def probe_main(argv):
     from rclpy.node import Node
     from rclpy.signals import SignalHandlerOptions
 
-    from flectofold_ros import contract, panel_states
-    from flectofold_ros.interfaces import subscription
+    from flectofold_ros.wire import contract, panel_states
+    from flectofold_ros.runtime.interfaces import subscription
 
     observer = contract.OBSERVER
     node = Node('bench_probe')
@@ -429,8 +429,8 @@ def commander_main(argv):
     from sensor_msgs.msg import JointState
     from std_msgs.msg import Float64
 
-    from flectofold_ros import contract
-    from flectofold_ros.interfaces import publisher
+    from flectofold_ros.wire import contract
+    from flectofold_ros.runtime.interfaces import publisher
     # Loaded ahead; joins the graph on "go" (so the rest phase has no commander in it).
     go = threading.Event()
     threading.Thread(target=lambda: (sys.stdin.readline(), go.set()), daemon=True).start()
@@ -505,8 +505,8 @@ def peer_main(argv):
     from sensor_msgs.msg import FluidPressure, JointState
     from std_msgs.msg import Float64
 
-    from flectofold_ros import contract
-    from flectofold_ros.interfaces import publisher, subscription
+    from flectofold_ros.wire import contract
+    from flectofold_ros.runtime.interfaces import publisher, subscription
 
     class Peer(Node):
         def __init__(self, panel_id):
@@ -640,7 +640,7 @@ def _timed(callback, panel_id):
     return timed
 
 
-# The package subscribes only through flectofold_ros.interfaces.subscription (its contract
+# The package subscribes only through flectofold_ros.runtime.interfaces.subscription (its contract
 # test checks that); the panel module's name for it is the one to wrap.
 import flectofold_ros.nodes.panel as _panel  # noqa: E402  (fails loudly if the node is gone)
 
@@ -667,7 +667,7 @@ if os.environ.get('BENCH_SETPOINTS') == 'facade':
         _out.write('# wrapped facade PanelProcess.offer\n')
 else:
     _panel.subscription = _timed_subscription
-from flectofold_ros.executables import panel_group  # noqa: E402
+from flectofold_ros.runtime.executables import panel_group  # noqa: E402
 
 sys.argv = ['panel_group', *sys.argv[1:]]
 panel_group()

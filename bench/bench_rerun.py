@@ -4,7 +4,7 @@ Run with ``.venv/bin/python bench/bench_rerun.py [--flushes 100]``. Each facade 
 demonstrator's 36 panels, and 1,000 demonstrator modules on a 25 x 40 grid) is split into two
 panel processes, as the bringup runs it. Every flush gets one ``/facade/panel_states``
 message from each process (``sensor_msgs/PointCloud2`` built with
-:func:`flectofold_ros.panel_states.fill_message`, through :func:`feed` as the bridge gets it)
+:func:`flectofold_ros.wire.panel_states.fill_message`, through :func:`feed` as the bridge gets it)
 with every panel moving and ``min_change_rad=0``, so every flush re-meshes every panel and logs
 the whole facade mesh, colours, the three per-panel series and the closure band: the worst
 case. The recording goes to an ``.rrd`` file in a temporary folder.
@@ -27,9 +27,9 @@ from sensor_msgs.msg import PointCloud2, PointField
 
 from flectofold_model.actuation import ATMOSPHERIC_PRESSURE_PA
 from flectofold_model.facade.description import build_facade, DEFAULT_FACADE, load_facade
-from flectofold_ros import contract, panel_states
 from flectofold_ros.rerun.scene import FacadeScene, feed
 from flectofold_ros.rerun.sinks import open_recording
+from flectofold_ros.wire import contract, panel_states
 
 T0_NS = 1782036000 * 10**9
 STATE_NS = 10**8  # 10 Hz of ROS time

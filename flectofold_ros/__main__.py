@@ -2,7 +2,7 @@
 
 import sys
 
-from flectofold_ros.executables import EXECUTABLES, exit_with, run
+from flectofold_ros.runtime.executables import EXECUTABLES, exit_with, run
 
 if len(sys.argv) < 2 or sys.argv[1] not in EXECUTABLES:
     print(f'usage: python -m flectofold_ros {{{",".join(EXECUTABLES)}}} [ARGS ...]',

@@ -30,8 +30,8 @@ from launch.substitutions import LaunchConfiguration
 from launch_ros.actions import Node
 
 from flectofold_model.facade import DEFAULT_FACADE, load_facade
-from flectofold_ros import contract
 from flectofold_ros.bringup.plan import plan_day, PlanError
+from flectofold_ros.wire import contract
 
 PACKAGE = 'flectofold_ros'
 #: How launch restarts a node process that died (the facade command backs off instead).

@@ -11,7 +11,7 @@ from catkin_pkg.package import parse_package
 import pytest
 from setup_script import console_scripts
 
-from flectofold_ros import executables
+from flectofold_ros.runtime import executables
 
 ROOT = Path(__file__).resolve().parents[1]
 EXECUTABLES = sorted(executables.EXECUTABLES)
@@ -35,7 +35,7 @@ def test_package_xml_is_format_3_ament_python():
 
 
 def test_every_executable_is_a_console_script_through_the_signal_safe_entry_point():
-    assert console_scripts() == {name: f'flectofold_ros.executables:{name}'
+    assert console_scripts() == {name: f'flectofold_ros.runtime.executables:{name}'
                                  for name in EXECUTABLES}
 
 
@@ -102,11 +102,15 @@ def test_executables_are_console_scripts_in_the_venv():
         assert run.returncode == 0, run.stderr
 
 
-#: The parts that must run without rclpy (the model; the ROS package's pure parts).
-RCLPY_FREE = ['flectofold_model', 'flectofold_ros.contract', 'flectofold_ros.presence',
-              'flectofold_ros.bringup.plan',
-              'flectofold_ros.recording', 'flectofold_ros.rerun', 'flectofold_ros.commands',
-              'flectofold_ros.runner', 'flectofold_ros.executables', 'flectofold_ros.hardware']
+#: The parts that must run without rclpy: the model and, by folder, the ROS package's pure
+#: floors (what goes on the wire, recording, Rerun, commands, hardware); and, module by module,
+#: the pure parts of the bringup and of the runtime (the runner imports rclpy when it runs a
+#: node, not before).
+RCLPY_FREE = ['flectofold_model', 'flectofold_ros.wire', 'flectofold_ros.recording',
+              'flectofold_ros.rerun', 'flectofold_ros.commands', 'flectofold_ros.hardware',
+              'flectofold_ros.bringup.plan', 'flectofold_ros.bringup.supervision',
+              'flectofold_ros.bringup.fault_script', 'flectofold_ros.runtime.runner',
+              'flectofold_ros.runtime.executables', 'flectofold_ros.runtime.parameters']
 
 
 def modules_of(dotted):
@@ -290,14 +294,14 @@ def test_package_xml_names_every_module_the_code_imports():
     package = parse_package(str(ROOT / 'package.xml'))
     exec_depends = {dependency.name for dependency in package.exec_depends}
     needed = {ROSDEP_KEYS.get(name, name) for name in third_party}
-    # Interfaces the contract names are imported by name (flectofold_ros.interfaces).
+    # Interfaces the contract names are imported by name (flectofold_ros.runtime.interfaces).
     needed |= {type_name.split('/')[0] for type_name in contract_types()}
     assert needed <= exec_depends, sorted(needed - exec_depends)
     assert exec_depends <= needed, f'not imported: {sorted(exec_depends - needed)}'
 
 
 def contract_types():
-    from flectofold_ros import contract
+    from flectofold_ros.wire import contract
     topics = [value for value in vars(contract).values()
               if isinstance(value, (contract.Topic, contract.PanelTopic))]
     return {topic.msgtype for topic in topics} | {contract.RESET_FAULTS_TYPE}

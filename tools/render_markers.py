@@ -25,8 +25,8 @@ import rclpy  # noqa: E402
 from rclpy.node import Node  # noqa: E402
 from visualization_msgs.msg import Marker  # noqa: E402
 
-from flectofold_ros import colours, contract  # noqa: E402
-from flectofold_ros.interfaces import subscription  # noqa: E402
+from flectofold_ros.runtime.interfaces import subscription  # noqa: E402
+from flectofold_ros.wire import colours, contract  # noqa: E402
 
 
 def apply(shown, array):

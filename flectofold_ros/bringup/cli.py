@@ -23,22 +23,23 @@ from rclpy.utilities import remove_ros_args
 
 from flectofold_model.environment import read_weather, site_distance_deg, uncovered
 from flectofold_model.facade import DEFAULT_FACADE, load_facade
-from flectofold_ros import contract, diagnostics, presence
 from flectofold_ros.bringup.fault_script import load_fault_script
 from flectofold_ros.bringup.fault_script_node import FaultScriptNode
 from flectofold_ros.bringup.monitor import Monitor
 from flectofold_ros.bringup.plan import local_time, MAX_LAG_S, plan_day
 from flectofold_ros.bringup.supervision import hangs, RestartPolicy, Supervisor
 from flectofold_ros.commands.structure_cache import prepare_structural_map
-from flectofold_ros.domain_watch import Presence, StartCheck
-from flectofold_ros.interfaces import publisher
 from flectofold_ros.nodes.coordinator import CoordinatorNode
 from flectofold_ros.nodes.panel import MAX_CALL_S, start_panels
 from flectofold_ros.nodes.panel_group import group_slice
 from flectofold_ros.nodes.sun_position import SunPositionNode
 from flectofold_ros.nodes.weather import WEATHER_SITE_TOLERANCE_DEG, WeatherNode
 from flectofold_ros.recording.bag_segments import check_bag
-from flectofold_ros.runner import NO_ROOM, Program, run_nodes, stop_requested
+from flectofold_ros.runtime import diagnostics
+from flectofold_ros.runtime.domain_watch import Presence, StartCheck
+from flectofold_ros.runtime.interfaces import publisher
+from flectofold_ros.runtime.runner import NO_ROOM, Program, run_nodes, stop_requested
+from flectofold_ros.wire import contract, presence
 
 #: Wall seconds the clock waits at the start for every panel and observer to be up.
 START_WAIT_S = 60.0

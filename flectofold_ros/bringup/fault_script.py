@@ -24,7 +24,7 @@ from numbers import Real
 import re
 
 from flectofold_model.safe_yaml import load_yaml, YAMLInputError
-from flectofold_ros.fault_injection import FaultRequest, FaultRequestError, parse_request
+from flectofold_ros.wire.fault_injection import FaultRequest, FaultRequestError, parse_request
 
 #: Longest script accepted [characters] and most entries.
 MAX_CHARACTERS = 2**20

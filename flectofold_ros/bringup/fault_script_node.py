@@ -5,9 +5,9 @@ from rclpy.clock import Clock, ClockType
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 
-from flectofold_ros import contract
-from flectofold_ros.fault_injection import request_fields
-from flectofold_ros.interfaces import publisher
+from flectofold_ros.runtime.interfaces import publisher
+from flectofold_ros.wire import contract
+from flectofold_ros.wire.fault_injection import request_fields
 
 #: Wall period at which the node looks at the clock [s].
 POLL_PERIOD_S = 0.05

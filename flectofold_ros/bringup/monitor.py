@@ -14,9 +14,9 @@ import time
 import numpy as np
 from rclpy.node import Node
 
-from flectofold_ros import contract, panel_states
 from flectofold_ros.bringup.plan import local_time
-from flectofold_ros.interfaces import subscription
+from flectofold_ros.runtime.interfaces import subscription
+from flectofold_ros.wire import contract, panel_states
 
 
 #: Name ending of a panel process's own status on /diagnostics (``panel.py``).

@@ -24,9 +24,9 @@ import subprocess
 import time
 from typing import Callable, Optional
 
-from flectofold_ros.runner import NO_ROOM, PARENT_ENVIRONMENT
+from flectofold_ros.runtime.runner import NO_ROOM, PARENT_ENVIRONMENT
 
-#: Exit code of an executable that refused its input (``flectofold_ros.runner``).
+#: Exit code of an executable that refused its input (``flectofold_ros.runtime.runner``).
 BAD_INPUT = 2
 
 

@@ -46,7 +46,7 @@ are the file's local standard time."""
 
 
 def main(args=None):
-    from flectofold_ros.runner import run_command
+    from flectofold_ros.runtime.runner import run_command
     parser = argparse.ArgumentParser(
         description=__doc__.splitlines()[0], epilog=FIGURES,
         formatter_class=argparse.RawDescriptionHelpFormatter)

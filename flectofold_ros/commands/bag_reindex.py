@@ -13,7 +13,7 @@ import argparse
 import sys
 
 from flectofold_ros.recording.bag_segments import BagError
-from flectofold_ros.runner import run_command
+from flectofold_ros.runtime.runner import run_command
 
 
 def parse_arguments(argv):

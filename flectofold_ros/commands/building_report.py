@@ -22,7 +22,7 @@ _DATE = re.compile(r'^(?:\d{4}-)?(\d{2})-(\d{2})$')
 
 
 def main(args=None):
-    from flectofold_ros.runner import run_command
+    from flectofold_ros.runtime.runner import run_command
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0],
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument('weather_file', type=Path,

@@ -16,7 +16,7 @@ import time
 
 from flectofold_model.facade import DEFAULT_FACADE, load_facade
 from flectofold_model.scheduling.day_report import plot, simulate_day
-from flectofold_ros.runner import run_command
+from flectofold_ros.runtime.runner import run_command
 
 
 def main(args=None):

@@ -27,7 +27,7 @@ FRAMES = """frames and units (metres everywhere):
 
 
 def main(args=None):
-    from flectofold_ros.runner import run_command
+    from flectofold_ros.runtime.runner import run_command
     parser = argparse.ArgumentParser(
         prog='facade_export', description=__doc__.splitlines()[0], epilog=FRAMES,
         formatter_class=argparse.RawDescriptionHelpFormatter)

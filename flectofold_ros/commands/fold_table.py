@@ -21,7 +21,7 @@ from flectofold_model.kinematics.hexagon.panel import HexagonPanel
 from flectofold_model.structure.comparison import kinematic_rows, structural_rows
 from flectofold_model.structure.hexagon import hexagon_structural_path, HexagonMesh
 from flectofold_model.structure.panel import PanelMesh, structural_path
-from flectofold_ros.runner import run_command
+from flectofold_ros.runtime.runner import run_command
 
 PANELS = {'demonstrator': DEMONSTRATOR_MODULE, 'prototype': PROTOTYPE,
           'quad': DEMONSTRATOR_MODULE, 'hexagon': HEXAGON_MODULE,

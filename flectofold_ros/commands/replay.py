@@ -16,7 +16,7 @@ import time
 from flectofold_model.facade import DEFAULT_FACADE, load_facade
 from flectofold_ros.recording.bag_segments import BagError, unreadable_segments
 from flectofold_ros.rerun.bag_to_rrd import convert
-from flectofold_ros.runner import Interrupted, run_command
+from flectofold_ros.runtime.runner import Interrupted, run_command
 
 DEFAULT_FLUSH_PERIOD_S = 1.0
 

@@ -15,7 +15,7 @@ import math
 import sys
 import time
 
-from flectofold_ros.runner import run_command
+from flectofold_ros.runtime.runner import run_command
 
 
 def parse_arguments(argv):

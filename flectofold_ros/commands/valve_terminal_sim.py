@@ -53,7 +53,7 @@ def parse_arguments(argv):
 
 def main(args=None):
     """Run the terminal until SIGINT or SIGTERM; exit 2 with one line on bad input."""
-    from flectofold_ros.runner import run_command
+    from flectofold_ros.runtime.runner import run_command
     argv = sys.argv[1:] if args is None else list(args)[1:]
 
     def body(stop):

@@ -5,5 +5,5 @@
 - :mod:`.coordinator` (``coordinator_node``): the schedule;
 - :mod:`.rerun_bridge`, :mod:`.bag_recorder`, :mod:`.replay`: observers and playback.
 
-Every ``main`` runs through :func:`flectofold_ros.runner.run_nodes`.
+Every ``main`` runs through :func:`flectofold_ros.runtime.runner.run_nodes`.
 """

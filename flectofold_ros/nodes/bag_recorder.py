@@ -23,11 +23,12 @@ from rclpy.clock import Clock, ClockType
 from rclpy.event_handler import SubscriptionEventCallbacks, UnsupportedEventTypeError
 from rclpy.node import Node
 
-from flectofold_ros import contract, diagnostics
-from flectofold_ros.interfaces import message_class, offered, publisher, subscription
-from flectofold_ros.parameters import declare_all, double, string, strings
 from flectofold_ros.recording.bag_segments import BagError, out_of_room, SegmentedBagWriter
-from flectofold_ros.runner import NO_ROOM, Program, run_nodes
+from flectofold_ros.runtime import diagnostics
+from flectofold_ros.runtime.interfaces import message_class, offered, publisher, subscription
+from flectofold_ros.runtime.parameters import declare_all, double, string, strings
+from flectofold_ros.runtime.runner import NO_ROOM, Program, run_nodes
+from flectofold_ros.wire import contract
 
 QUEUE_DEPTH = 100000
 #: Default rotation: a segment closes (and becomes directly readable after a SIGKILL) after

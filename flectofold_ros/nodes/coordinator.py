@@ -24,11 +24,12 @@ from flectofold_model.scheduling.facade_schedule import representative_panel
 from flectofold_model.scheduling.predictive import DEFAULT_CONTROLLER
 from flectofold_model.scheduling.scheduler import OverrideRefused
 from flectofold_model.shading import ShadingTable
-from flectofold_ros import contract, diagnostics, facade_setpoints, panel_states, presence
-from flectofold_ros.domain_watch import Presence, report_domain, SourceGuard, StartCheck
-from flectofold_ros.interfaces import publisher, subscription
-from flectofold_ros.parameters import declare_all, double, string
-from flectofold_ros.runner import Program, run_nodes
+from flectofold_ros.runtime import diagnostics
+from flectofold_ros.runtime.domain_watch import Presence, report_domain, SourceGuard, StartCheck
+from flectofold_ros.runtime.interfaces import publisher, subscription
+from flectofold_ros.runtime.parameters import declare_all, double, string
+from flectofold_ros.runtime.runner import Program, run_nodes
+from flectofold_ros.wire import contract, facade_setpoints, panel_states, presence
 
 USAGE = 'coordinator_node [--ros-args -p name:=value ...]'
 
@@ -80,7 +81,8 @@ class CoordinatorNode(Node):
         self._faulted = dict.fromkeys(self.facade.panel_ids, False)
         self._setpoints = publisher(self, contract.FACADE_SETPOINTS)
         self.presence = None
-        """Its process's :class:`~flectofold_ros.domain_watch.Presence` when it runs alone."""
+        """Its process's :class:`~flectofold_ros.runtime.domain_watch.Presence` when it runs
+        alone."""
         watched = [contract.SUN.name, contract.WIND_SPEED.name, contract.DNI.name,
                    contract.FACADE_SETPOINTS.name]
         if self._value('use_sim_time'):
@@ -384,7 +386,7 @@ def start_coordinator():
     """Create the coordinator of a process of its own; refuse beside another one.
 
     ``ValueError`` (exit 2) when another live coordinator is heard on the domain
-    (:mod:`flectofold_ros.presence`). The check listens on a node of its own, so that no
+    (:mod:`flectofold_ros.wire.presence`). The check listens on a node of its own, so that no
     second ``/facade/setpoints`` publisher shows on the graph meanwhile.
     """
     StartCheck('coordinator_start_check').refuse(presence.this_process(

@@ -22,11 +22,11 @@ from std_msgs.msg import ColorRGBA
 from visualization_msgs.msg import Marker, MarkerArray
 
 from flectofold_model.facade import DEFAULT_FACADE, load_facade
-from flectofold_ros import contract, panel_states
-from flectofold_ros.interfaces import publisher, subscription
-from flectofold_ros.markers import FacadeMarkers
-from flectofold_ros.parameters import declare_all, double, string
-from flectofold_ros.runner import configure_or_destroy, Program, run_nodes
+from flectofold_ros.runtime.interfaces import publisher, subscription
+from flectofold_ros.runtime.parameters import declare_all, double, string
+from flectofold_ros.runtime.runner import configure_or_destroy, Program, run_nodes
+from flectofold_ros.wire import contract, panel_states
+from flectofold_ros.wire.markers import FacadeMarkers
 
 USAGE = 'facade_markers [--ros-args -p facade_file:=PATH -p name:=value ...]'
 

@@ -35,13 +35,14 @@ from flectofold_model.control.hardware import SimulatedCushions
 from flectofold_model.control.panel_loops import LoopSample, panel_indices
 from flectofold_model.facade import DEFAULT_FACADE, load_facade
 from flectofold_model.kinematics.kinds import panel_kind
-from flectofold_ros import contract, diagnostics, facade_setpoints, panel_states, presence
-from flectofold_ros.domain_watch import (Presence, report_domain, senders, service_clients,
-                                         SourceGuard, StartCheck)
-from flectofold_ros.fault_injection import FaultInjector, FaultRequestError, parse_request
-from flectofold_ros.interfaces import publisher, service, subscription
-from flectofold_ros.parameters import choice, declare_all, double, integer, string
-from flectofold_ros.runner import Program, run_nodes
+from flectofold_ros.runtime import diagnostics
+from flectofold_ros.runtime.domain_watch import (Presence, report_domain, senders,
+                                                 service_clients, SourceGuard, StartCheck)
+from flectofold_ros.runtime.interfaces import publisher, service, subscription
+from flectofold_ros.runtime.parameters import choice, declare_all, double, integer, string
+from flectofold_ros.runtime.runner import Program, run_nodes
+from flectofold_ros.wire import contract, facade_setpoints, panel_states, presence
+from flectofold_ros.wire.fault_injection import FaultInjector, FaultRequestError, parse_request
 
 #: The cushion drivers there are (``hardware``), each built in :func:`build_loops`:
 #: ``simulated`` (the plant model) and ``modbus`` (a Modbus TCP valve terminal,
@@ -250,7 +251,8 @@ class PanelProcess:
         self.setpoint_messages_refused, self.last_setpoints_refusal = 0, ''
         self._setpoint_refusals_since_report = 0
         self.presence = None
-        """The process's :class:`~flectofold_ros.domain_watch.Presence` (set by start_panels)."""
+        """The process's :class:`~flectofold_ros.runtime.domain_watch.Presence` (set by
+        start_panels)."""
         watched = [contract.FACADE_SETPOINTS.name]
         if settings.get_parameter('use_sim_time').value:
             watched.append(contract.CLOCK.name)

@@ -14,8 +14,8 @@ from rclpy.parameter import Parameter
 from rclpy.utilities import remove_ros_args
 
 from flectofold_model.facade import DEFAULT_FACADE, load_facade
-from flectofold_ros import contract
 from flectofold_ros.nodes.panel import run_panels
+from flectofold_ros.wire import contract
 
 #: A ROS node name: a letter or underscore, then letters, digits or underscores.
 NODE_NAME = re.compile(r'[A-Za-z_][A-Za-z0-9_]*')

@@ -17,13 +17,14 @@ from rclpy.clock import Clock, ClockType
 from rclpy.node import Node
 
 from flectofold_model.facade import DEFAULT_FACADE, load_facade
-from flectofold_ros import contract, diagnostics
-from flectofold_ros.interfaces import publisher, subscription
-from flectofold_ros.parameters import boolean, choice, declare_all, double, integer, string
 from flectofold_ros.rerun.scene import COLOR_MODES, FacadeScene, feed, scene_topics
 from flectofold_ros.rerun.sinks import (choose_sinks, close_recording, open_recording,
                                         server_url, spawn_viewer)
-from flectofold_ros.runner import Program, run_nodes
+from flectofold_ros.runtime import diagnostics
+from flectofold_ros.runtime.interfaces import publisher, subscription
+from flectofold_ros.runtime.parameters import boolean, choice, declare_all, double, integer, string
+from flectofold_ros.runtime.runner import Program, run_nodes
+from flectofold_ros.wire import contract
 
 USAGE = 'rerun_bridge [--ros-args -p name:=value ...]'
 

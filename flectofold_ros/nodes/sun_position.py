@@ -18,10 +18,10 @@ from rosgraph_msgs.msg import Clock as ClockMessage
 
 from flectofold_model.environment import (epoch_from_iso, SimulatedClock, Site, sun_vector_enu,
                                           SunEphemeris)
-from flectofold_ros import contract, panel_states
-from flectofold_ros.interfaces import publisher, subscription
-from flectofold_ros.parameters import choice, declare_all, double, integer, string
-from flectofold_ros.runner import configure_or_destroy, Program, run_nodes
+from flectofold_ros.runtime.interfaces import publisher, subscription
+from flectofold_ros.runtime.parameters import choice, declare_all, double, integer, string
+from flectofold_ros.runtime.runner import configure_or_destroy, Program, run_nodes
+from flectofold_ros.wire import contract, panel_states
 
 MODES = ('wall', 'simulated')
 #: A tick later than this many periods (a starved process) advances simulated time by this

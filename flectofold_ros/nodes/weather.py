@@ -15,10 +15,10 @@ from rclpy.node import Node
 from std_msgs.msg import Float64
 
 from flectofold_model.environment import read_weather, uncovered, weather_at
-from flectofold_ros import contract
-from flectofold_ros.interfaces import publisher
-from flectofold_ros.parameters import declare_all, double, string
-from flectofold_ros.runner import configure_or_destroy, Program, run_nodes
+from flectofold_ros.runtime.interfaces import publisher
+from flectofold_ros.runtime.parameters import declare_all, double, string
+from flectofold_ros.runtime.runner import configure_or_destroy, Program, run_nodes
+from flectofold_ros.wire import contract
 
 NS_PER_S = 10**9
 #: A weather file further than this from the facade's site is warned about [deg of arc].

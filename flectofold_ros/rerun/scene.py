@@ -4,7 +4,7 @@ No rclpy here. The live ``rerun_bridge`` node and the offline bag converter (``r
 --to-rrd``) feed the same :class:`FacadeScene` with plain values, so a bag converted later
 gives the recording the live bridge gave.
 
-The input is ``/facade/panel_states`` (:mod:`flectofold_ros.panel_states`): one message per
+The input is ``/facade/panel_states`` (:mod:`flectofold_ros.wire.panel_states`): one message per
 panel process and state instant, a table of that process's panels. The scene logs a constant
 number of Rerun calls per flush whatever the panel count (one mesh, one column batch per time
 series, one for the events), so 1,000 panels cost about what 36 do in calls; the data is kept
@@ -42,9 +42,9 @@ from flectofold_model.actuation import ATMOSPHERIC_PRESSURE_PA
 # export; its resolution rule and k_from_sag are re-exported here for the scene's callers.
 from flectofold_model.facade.folded_mesh import (  # noqa: F401
     facade_topology, FACADE_VERTEX_BUDGET, FacadeMesher, k_from_sag)
-from flectofold_ros import contract, panel_states
+from flectofold_ros.wire import contract, panel_states
 # One colour scheme for every view of the facade; re-exported for the scene's callers.
-from flectofold_ros.colours import (  # noqa: F401
+from flectofold_ros.wire.colours import (  # noqa: F401
     FAULT_RGBA, NO_STATE_RGBA, panel_colours, ramp_colour, ramp_colours, SURFACE_RGBA)
 
 TIMELINE = 'ros_time'
@@ -474,7 +474,7 @@ class FacadeScene:
 # -- topics -> scene ---------------------------------------------------------------------------
 
 def scene_topics(facade=None):
-    """Return the contract :class:`~flectofold_ros.contract.Topic` s a scene shows.
+    """Return the contract :class:`~flectofold_ros.wire.contract.Topic` s a scene shows.
 
     The facade-level ``panel_states`` (every panel of a process in one message) and the sun;
     not the per-panel topics, which are published only on change. ``facade`` is accepted for

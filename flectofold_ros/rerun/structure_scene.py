@@ -8,7 +8,7 @@ state; panel frame, z out of the facade, REP-103):
 - ``/structure/sheet``: one ``Mesh3D``: triangles static (with ``zone`` per triangle, 0 mid-rib
   or central part, 1 hinge, 2 flap, and the ``allowable_strain``), vertex positions [m] and
   vertex colours at every equilibrium. A vertex takes the largest surface strain of the
-  triangles around it, coloured by :func:`~flectofold_ros.colours.strain_colours` (green none,
+  triangles around it, coloured by :func:`~flectofold_ros.wire.colours.strain_colours` (green none,
   amber the allowable, red ten times it).
 - ``/structure/pressure_pa``, ``/structure/apex_fold_rad``, ``/structure/peak_hinge_strain``:
   one scalar per equilibrium.
@@ -17,7 +17,7 @@ state; panel frame, z out of the facade, REP-103):
 import numpy as np
 import rerun as rr
 
-from flectofold_ros.colours import strain_colours
+from flectofold_ros.wire.colours import strain_colours
 
 TIMELINE = 'equilibrium'
 SHEET = '/structure/sheet'

@@ -21,8 +21,8 @@ import rclpy
 from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 
-from flectofold_ros import contract
-from flectofold_ros.interfaces import message_class, publisher, subscription
+from flectofold_ros.runtime.interfaces import message_class, publisher, subscription
+from flectofold_ros.wire import contract
 
 SEND_PERIOD_S = 0.2
 

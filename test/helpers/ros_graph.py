@@ -198,8 +198,8 @@ def bench_domains():
 
 def on_facade_setpoints(node, callback):
     """Subscribe ``node`` to ``/facade/setpoints``; ``callback(panel_id, closure)`` per entry."""
-    from flectofold_ros import contract
-    from flectofold_ros.interfaces import subscription
+    from flectofold_ros.wire import contract
+    from flectofold_ros.runtime.interfaces import subscription
 
     def each_entry(message):
         for name, closure in zip(message.name, message.position):

@@ -6,9 +6,9 @@ import pytest
 from rcl_interfaces.msg import ParameterType
 import yaml
 
-from flectofold_ros import contract
 from flectofold_ros.nodes import (bag_recorder, coordinator, facade_markers, panel, rerun_bridge,
                                   sun_position)
+from flectofold_ros.wire import contract
 
 CONFIG = Path(__file__).resolve().parents[2] / 'config'
 #: config file -> the parameters of the node it is for.

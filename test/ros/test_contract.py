@@ -8,11 +8,12 @@ import re
 import pytest
 
 from flectofold_model.facade import load_facade
-from flectofold_ros import contract
+from flectofold_ros.wire import contract
 
 ROOT = Path(__file__).resolve().parents[2]
 #: Where the contract's topics, types and QoS may be written down.
-CONTRACT_FILES = {ROOT / 'flectofold_ros' / name for name in ('contract.py', 'interfaces.py')}
+CONTRACT_FILES = {ROOT / 'flectofold_ros' / 'wire' / 'contract.py',
+                  ROOT / 'flectofold_ros' / 'runtime' / 'interfaces.py'}
 #: Code that must take them from the contract: the package, launch files, tests, benchmarks.
 CODE = sorted({*ROOT.glob('flectofold_ros/**/*.py'), *ROOT.glob('launch/*.py'),
                *ROOT.glob('test/**/*.py'), *ROOT.glob('bench/*.py'),
@@ -92,7 +93,7 @@ def test_no_topic_or_qos_is_written_outside_the_contract(path):
     text = path.read_text()
     hand_written = [(number, line.strip()) for number, line in enumerate(text.splitlines(), 1)
                     if BY_HAND.search(line) and not line.lstrip().startswith('#')]
-    assert not hand_written, f'use flectofold_ros.interfaces: {hand_written}'
+    assert not hand_written, f'use flectofold_ros.runtime.interfaces: {hand_written}'
     spelled = [(number, value) for number, value in string_constants(ast.parse(text))
                if names_a_topic(value)]
-    assert not spelled, f'take these names from flectofold_ros.contract: {spelled}'
+    assert not spelled, f'take these names from flectofold_ros.wire.contract: {spelled}'

@@ -1,10 +1,10 @@
-"""``/facade/setpoints`` read and written without ROS (``flectofold_ros.facade_setpoints``)."""
+"""``/facade/setpoints`` read and written without ROS (``wire.facade_setpoints``)."""
 
 import math
 
 import pytest
 
-from flectofold_ros.facade_setpoints import entries, fields, SetpointsMessageError
+from flectofold_ros.wire.facade_setpoints import entries, fields, SetpointsMessageError
 
 
 def test_entries_pair_names_with_closures_and_refuse_what_does_not_pair():

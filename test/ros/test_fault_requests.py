@@ -7,8 +7,8 @@ import pytest
 
 from flectofold_model.actuation import (ActuationModel, CushionMap, DEMONSTRATOR_ACTUATED,
                                         DEMONSTRATOR_PLANT, PneumaticPlant)
-from flectofold_ros.fault_injection import (FaultInjector, FaultRequestError, parse_request,
-                                            request_fields)
+from flectofold_ros.wire.fault_injection import (FaultInjector, FaultRequestError,
+                                                 parse_request, request_fields)
 
 FACADE = [f'r{row:02d}c{column:02d}' for row in range(6) for column in range(6)]
 HEALTHY_LEAK = DEMONSTRATOR_PLANT.leak_conductance_m3_s_pa

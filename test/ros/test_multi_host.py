@@ -27,7 +27,7 @@ import time
 import pytest
 from ros_graph import BIN, domain_for
 
-from flectofold_ros import contract
+from flectofold_ros.wire import contract
 
 pytestmark = pytest.mark.graph
 

@@ -6,8 +6,8 @@ import pytest
 from rclpy.serialization import serialize_message
 from sensor_msgs.msg import PointCloud2, PointField
 
-from flectofold_ros import contract, panel_states
 from flectofold_ros.rerun.bag_to_rrd import decode
+from flectofold_ros.wire import contract, panel_states
 
 IDS = ['r00c00', 'r00c01', 'r12c07', 'r24c39']
 

@@ -1,9 +1,9 @@
-"""The rules of one facade per domain (:mod:`flectofold_ros.presence`), without ROS."""
+"""The rules of one facade per domain (:mod:`flectofold_ros.wire.presence`), without ROS."""
 
 import pytest
 
-from flectofold_ros import contract, presence
-from flectofold_ros.presence import Instance
+from flectofold_ros.wire import contract, presence
+from flectofold_ros.wire.presence import Instance
 
 
 def bringup(pid, host='h1', panels=()):

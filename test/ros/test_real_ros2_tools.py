@@ -21,9 +21,9 @@ import pytest
 from ros_graph import BIN, domain_for, Graph
 from std_msgs.msg import Float64
 
-from flectofold_ros import contract, panel_states
-from flectofold_ros.executables import EXECUTABLES
-from flectofold_ros.interfaces import publisher, subscription
+from flectofold_ros.runtime.executables import EXECUTABLES
+from flectofold_ros.runtime.interfaces import publisher, subscription
+from flectofold_ros.wire import contract, panel_states
 
 pytestmark = pytest.mark.graph
 ROOT = Path(__file__).resolve().parents[2]

@@ -1,4 +1,4 @@
-"""The one start-up and stop policy of every executable, in-process (flectofold_ros.runner)."""
+"""The one start-up and stop policy of every executable, in-process (runtime.runner)."""
 
 import os
 import signal
@@ -7,7 +7,7 @@ import time
 from process_state import running
 import pytest
 
-from flectofold_ros.runner import Interrupted, run_command, StopSignals
+from flectofold_ros.runtime.runner import Interrupted, run_command, StopSignals
 
 
 def deliver(number=signal.SIGINT):
@@ -126,7 +126,7 @@ def test_a_signal_that_lands_in_a_weakref_callback_still_stops_the_program(monke
 def test_a_signal_in_an_extension_module_s_initialisation_is_a_clean_stop(monkeypatch):
     """pybind11 turns an exception raised in a module's init into an ImportError."""
     import importlib
-    from flectofold_ros import executables
+    from flectofold_ros.runtime import executables
 
     def importing(name):
         try:
@@ -140,7 +140,7 @@ def test_a_signal_in_an_extension_module_s_initialisation_is_a_clean_stop(monkey
 def test_a_signal_in_a_class_body_while_importing_is_a_clean_stop(monkeypatch):
     """A dataclass field's ``__set_name__`` wraps it in a RuntimeError (seen: scipy, 0.4 s)."""
     import importlib
-    from flectofold_ros import executables
+    from flectofold_ros.runtime import executables
 
     def importing(name):
         try:
@@ -153,7 +153,7 @@ def test_a_signal_in_a_class_body_while_importing_is_a_clean_stop(monkeypatch):
 
 def test_a_runtime_error_without_a_signal_is_not_hidden(monkeypatch):
     import importlib
-    from flectofold_ros import executables
+    from flectofold_ros.runtime import executables
 
     def importing(name):
         try:
@@ -168,7 +168,7 @@ def test_a_runtime_error_without_a_signal_is_not_hidden(monkeypatch):
 
 def test_an_import_error_without_a_signal_is_not_hidden(monkeypatch):
     import importlib
-    from flectofold_ros import executables
+    from flectofold_ros.runtime import executables
 
     def importing(name):
         raise ImportError('no such module')
@@ -180,7 +180,7 @@ def test_an_import_error_without_a_signal_is_not_hidden(monkeypatch):
 LATE_SIGNALS = """
 import os, signal, sys, time
 sys.path.insert(0, sys.argv[1])
-from flectofold_ros import executables
+from flectofold_ros.runtime import executables
 executables.EXECUTABLES['finished'] = ('finished_module', 130)
 code = executables.run('finished', [], ending=True)
 os.kill(os.getpid(), signal.SIGINT)  # Ctrl-C just after the work was done and reported
@@ -202,7 +202,7 @@ def test_a_signal_after_the_work_is_done_cannot_kill_the_process_on_its_way_out(
 CHATTY = """
 import sys
 sys.path.insert(0, sys.argv[1])
-from flectofold_ros import executables
+from flectofold_ros.runtime import executables
 executables.EXECUTABLES['chatty'] = ('chatty_module', 130)
 sys.exit(executables.run('chatty', [], ending=True))
 """
@@ -225,7 +225,7 @@ def test_a_reader_that_leaves_early_ends_the_command_without_a_traceback(tmp_pat
 def test_an_executable_run_in_process_gives_the_stop_signals_back():
     """Only a process that ends with the executable keeps them ignored (pytest goes on)."""
     import signal
-    from flectofold_ros import executables
+    from flectofold_ros.runtime import executables
     before = signal.getsignal(signal.SIGINT), signal.getsignal(signal.SIGTERM)
     executables.run('fold_table', ['fold_table', '--steps', '2'])
     assert (signal.getsignal(signal.SIGINT), signal.getsignal(signal.SIGTERM)) == before
@@ -235,13 +235,13 @@ def test_an_executable_run_in_process_gives_the_stop_signals_back():
 SUPERVISED = """
 import os, sys, time
 sys.path.insert(0, sys.argv[1])
-from flectofold_ros import executables
+from flectofold_ros.runtime import executables
 executables.EXECUTABLES['supervised'] = ('supervised_module', 130)
 sys.exit(executables.run('supervised', [], ending=True))
 """
 SUPERVISED_MODULE = """
 import os, sys, time
-from flectofold_ros.runner import PARENT_ENVIRONMENT
+from flectofold_ros.runtime.runner import PARENT_ENVIRONMENT
 def main(args=None):
     print('started', PARENT_ENVIRONMENT in os.environ, flush=True)
     time.sleep(60.0)
@@ -253,7 +253,7 @@ def supervised(tmp_path, parent_pid):
     import subprocess
     import sys
     (tmp_path / 'supervised_module.py').write_text(SUPERVISED_MODULE)
-    from flectofold_ros.runner import PARENT_ENVIRONMENT
+    from flectofold_ros.runtime.runner import PARENT_ENVIRONMENT
     return subprocess.Popen([sys.executable, '-c', SUPERVISED, str(tmp_path)],
                             env=dict(os.environ, **{PARENT_ENVIRONMENT: parent_pid}),
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
@@ -270,7 +270,7 @@ def test_a_child_of_a_supervisor_is_stopped_when_the_supervisor_dies(tmp_path):
     import subprocess
     import sys
     (tmp_path / 'supervised_module.py').write_text(SUPERVISED_MODULE)
-    from flectofold_ros.runner import PARENT_ENVIRONMENT
+    from flectofold_ros.runtime.runner import PARENT_ENVIRONMENT
     shell = subprocess.Popen(
         ['bash', '-c', f'{PARENT_ENVIRONMENT}=$$ "{sys.executable}" -c "$0" "$1" & echo $!; '
                        'wait', SUPERVISED, str(tmp_path)],

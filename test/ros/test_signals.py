@@ -15,8 +15,8 @@ import pytest
 from ros_graph import BIN, domain_for, signal_group_and_wait
 from rosbags.rosbag2 import Reader
 
-from flectofold_ros import contract
 from flectofold_ros.recording.bag_segments import SegmentedBagWriter
+from flectofold_ros.wire import contract
 
 pytestmark = pytest.mark.graph
 #: Seconds after the start: still loading (imports, models), and up and running.

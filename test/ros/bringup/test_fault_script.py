@@ -89,7 +89,7 @@ def test_a_script_too_long_or_unreadable_is_refused(tmp_path):
 def test_the_script_and_the_requests_need_no_rclpy():
     check = subprocess.run(
         [sys.executable, '-c', 'import sys\n'
-         'import flectofold_ros.bringup.fault_script, flectofold_ros.fault_injection\n'
+         'import flectofold_ros.bringup.fault_script, flectofold_ros.wire.fault_injection\n'
          'assert "rclpy" not in sys.modules, "rclpy was imported"'],
         capture_output=True, text=True, timeout=120)
     assert check.returncode == 0, check.stderr

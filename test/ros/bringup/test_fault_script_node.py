@@ -8,9 +8,9 @@ import pytest
 from ros_graph import domain_for, Graph
 from rosgraph_msgs.msg import Clock
 
-from flectofold_ros import contract, panel_states
 from flectofold_ros.bringup.fault_script import load_fault_script
-from flectofold_ros.interfaces import publisher, subscription
+from flectofold_ros.runtime.interfaces import publisher, subscription
+from flectofold_ros.wire import contract, panel_states
 
 pytestmark = pytest.mark.graph
 FACADE = [f'r{row:02d}c{column:02d}' for row in range(6) for column in range(6)]

@@ -9,8 +9,8 @@ from rosbags.highlevel import AnyReader
 from rrd_reading import Rrd
 
 from flectofold_model.facade import load_facade
-from flectofold_ros import contract
 from flectofold_ros.rerun.scene import facade_topology
+from flectofold_ros.wire import contract
 
 pytestmark = pytest.mark.graph
 

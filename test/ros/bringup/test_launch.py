@@ -13,8 +13,8 @@ import types
 import pytest
 
 from flectofold_model.facade.description import DEFAULT_FACADE, FacadeError, load_facade
-from flectofold_ros import contract
 from flectofold_ros.nodes.panel_group import group_slice
+from flectofold_ros.wire import contract
 
 LAUNCH_FILE = Path(__file__).resolve().parents[3] / 'launch' / 'facade.launch.py'
 SETUP_GLOB = '*launch.[pxy][yma]*'  # setup.py installs launch/<this> to share/.../launch

@@ -16,8 +16,8 @@ from ros_graph import domain_for, Graph
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
 
-from flectofold_ros import contract
-from flectofold_ros.interfaces import client, message_class, publisher, subscription
+from flectofold_ros.runtime.interfaces import client, message_class, publisher, subscription
+from flectofold_ros.wire import contract
 
 pytestmark = pytest.mark.graph
 

@@ -14,9 +14,9 @@ from bringup_day import (begin_day, end_day, panel_processes_of, start_day,
 import pytest
 from ros_graph import domain_for, Graph, PROMPT_S
 
-from flectofold_ros import contract
 from flectofold_ros.bringup.cli import HUNG_S
-from flectofold_ros.interfaces import subscription
+from flectofold_ros.runtime.interfaces import subscription
+from flectofold_ros.wire import contract
 
 pytestmark = pytest.mark.graph
 

@@ -12,7 +12,7 @@ import sys
 import pytest
 
 from flectofold_ros.bringup.supervision import Death, hangs, RestartPolicy, Supervisor
-from flectofold_ros.runner import NO_ROOM
+from flectofold_ros.runtime.runner import NO_ROOM
 
 
 class FakeClock:

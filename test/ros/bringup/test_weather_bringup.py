@@ -17,8 +17,8 @@ from ros_graph import BIN, domain_for, Graph
 from rosbags.highlevel import AnyReader
 
 from flectofold_model.environment import read_weather, Site, site_distance_deg
-from flectofold_ros import contract, panel_states
 from flectofold_ros.nodes.weather import readings_at
+from flectofold_ros.wire import contract, panel_states
 
 pytestmark = pytest.mark.graph
 

@@ -7,7 +7,7 @@ import pytest
 from flectofold_model.scheduling import annual_report as model
 from flectofold_model.shading.table import ShadingTable
 from flectofold_ros.commands import annual_report
-from flectofold_ros.executables import EXECUTABLES
+from flectofold_ros.runtime.executables import EXECUTABLES
 
 EPW_HEADER = [
     'LOCATION,Stuttgart,BW,DEU,TEST,107380,48.83,9.20,1.0,318.0',

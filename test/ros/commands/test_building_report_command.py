@@ -10,7 +10,7 @@ from flectofold_model.building import building_report as model
 from flectofold_model.building import daylight
 from flectofold_model.shading.table import ShadingTable
 from flectofold_ros.commands import building_report
-from flectofold_ros.executables import EXECUTABLES
+from flectofold_ros.runtime.executables import EXECUTABLES
 
 TMY3 = os.path.join(os.path.dirname(pvlib.__file__), 'data', '723170TYA.CSV')
 

@@ -19,7 +19,7 @@ import trimesh
 
 from flectofold_model.facade import load_facade
 from flectofold_model.facade.folded_mesh import folded_meshes
-from flectofold_ros.executables import EXECUTABLES
+from flectofold_ros.runtime.executables import EXECUTABLES
 
 ROOT = Path(__file__).resolve().parents[3]
 
@@ -52,7 +52,7 @@ def read_obj(path):
 
 def test_facade_export_is_an_executable_stopped_like_a_command():
     assert EXECUTABLES['facade_export'] == ('flectofold_ros.commands.facade_export', 130)
-    assert console_scripts()['facade_export'] == 'flectofold_ros.executables:facade_export'
+    assert console_scripts()['facade_export'] == 'flectofold_ros.runtime.executables:facade_export'
 
 
 def test_obj_has_one_object_per_panel_in_site_coordinates(tmp_path):

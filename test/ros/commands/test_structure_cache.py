@@ -15,7 +15,7 @@ from structure_seed import quick_median_path, seed_structural_map
 
 from flectofold_model.facade import build_facade
 from flectofold_model.structure.cushion_tables import CACHE_ENVIRONMENT
-from flectofold_ros.executables import EXECUTABLES
+from flectofold_ros.runtime.executables import EXECUTABLES
 
 pytestmark = pytest.mark.graph
 

@@ -17,8 +17,8 @@ from ros_graph import domain_for, Graph
 from rosgraph_msgs.msg import Clock
 from std_msgs.msg import Float64
 
-from flectofold_ros import contract, panel_states
-from flectofold_ros.interfaces import publisher, subscription
+from flectofold_ros.runtime.interfaces import publisher, subscription
+from flectofold_ros.wire import contract, panel_states
 
 pytestmark = pytest.mark.graph
 PANELS = ('r00c00', 'r00c01')

@@ -12,8 +12,8 @@ from rosgraph_msgs.msg import Clock
 
 from flectofold_model.facade.description import build_facade
 from flectofold_model.scheduling.facade_schedule import FacadeSchedule
-from flectofold_ros import contract
-from flectofold_ros.interfaces import publisher, subscription
+from flectofold_ros.runtime.interfaces import publisher, subscription
+from flectofold_ros.wire import contract
 
 SUN_PATH = Path(__file__).parents[2] / 'data' / 'sun_path_stuttgart_2026-06-21.csv'
 CONTROL = 'period_s: 60.0, shading_target: 0.9, min_dwell_s: 300.0, default_closure: 1.0'

@@ -15,9 +15,9 @@ from ros_graph import domain_for, Graph
 import yaml
 
 from flectofold_model.facade import load_facade
-from flectofold_ros import contract
-from flectofold_ros.interfaces import subscription
 from flectofold_ros.nodes.panel import STATUSES_PER_MESSAGE
+from flectofold_ros.runtime.interfaces import subscription
+from flectofold_ros.wire import contract
 
 pytestmark = pytest.mark.graph
 DEMONSTRATOR_YAML = (Path(__file__).resolve().parents[3] / 'flectofold_model' / 'facade' /

@@ -15,9 +15,9 @@ from sensor_msgs.msg import PointCloud2, PointField
 from flectofold_model.facade import DEFAULT_FACADE, load_facade
 from flectofold_model.kinematics.kinds import fold_model_of
 from flectofold_model.kinematics.mesh import fold_mesh
-from flectofold_ros import colours, contract, panel_states
-from flectofold_ros.interfaces import publisher, qos_profile, subscription
-from flectofold_ros.markers import FacadeMarkers
+from flectofold_ros.runtime.interfaces import publisher, qos_profile, subscription
+from flectofold_ros.wire import colours, contract, panel_states
+from flectofold_ros.wire.markers import FacadeMarkers
 
 pytestmark = pytest.mark.graph
 #: Tables against the root finder (the viewer's path against the export's) [m].

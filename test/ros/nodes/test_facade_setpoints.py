@@ -13,8 +13,8 @@ import pytest
 from ros_graph import domain_for, Graph
 from sensor_msgs.msg import JointState
 
-from flectofold_ros import contract, panel_states
-from flectofold_ros.interfaces import publisher, subscription
+from flectofold_ros.runtime.interfaces import publisher, subscription
+from flectofold_ros.wire import contract, panel_states
 
 pytestmark = pytest.mark.graph
 PROCESSES = {'panel_group_a': ['r00c00', 'r00c01'], 'panel_group_b': ['r01c00', 'r01c01']}

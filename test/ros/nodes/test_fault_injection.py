@@ -16,8 +16,8 @@ from rosgraph_msgs.msg import Clock
 from std_msgs.msg import Float64
 from std_srvs.srv import Trigger
 
-from flectofold_ros import contract, panel_states
-from flectofold_ros.interfaces import client, publisher, subscription
+from flectofold_ros.runtime.interfaces import client, publisher, subscription
+from flectofold_ros.wire import contract, panel_states
 
 pytestmark = pytest.mark.graph
 PANELS = ['r00c00', 'r00c01', 'r00c02', 'r00c03', 'r00c04', 'r00c05', 'r01c00']

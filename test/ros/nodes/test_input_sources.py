@@ -1,7 +1,7 @@
 """The coordinator's inputs with one source: the sun held, the wind only trips, while two publish.
 
 A coordinator node in the test's process (its own context and domain), fed by two publisher
-nodes; the policies are :data:`flectofold_ros.presence.ONE_SOURCE`'s.
+nodes; the policies are :data:`flectofold_ros.wire.presence.ONE_SOURCE`'s.
 """
 
 import pytest
@@ -9,9 +9,10 @@ from rclpy.node import Node
 from rclpy.parameter import Parameter
 from ros_graph import domain_for, Graph
 
-from flectofold_ros import contract, diagnostics
-from flectofold_ros.interfaces import message_class, publisher
 from flectofold_ros.nodes.coordinator import CoordinatorNode
+from flectofold_ros.runtime import diagnostics
+from flectofold_ros.runtime.interfaces import message_class, publisher
+from flectofold_ros.wire import contract
 
 pytestmark = pytest.mark.graph
 

@@ -23,8 +23,8 @@ from ros_graph import domain_for, Graph, PROMPT_S
 from rosgraph_msgs.msg import Clock
 from std_msgs.msg import Float64
 
-from flectofold_ros import contract
-from flectofold_ros.interfaces import publisher, subscription
+from flectofold_ros.runtime.interfaces import publisher, subscription
+from flectofold_ros.wire import contract
 
 pytestmark = pytest.mark.graph
 PANEL = 'r00c00'

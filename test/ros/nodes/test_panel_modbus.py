@@ -10,8 +10,8 @@ from terminal_process import (EXAMPLE_MAP, read_registers, REGULATOR_MAP, Termin
                               UNHURRIED_TIMEOUT_S)
 
 from flectofold_model.actuation import DEMONSTRATOR_PLANT
-from flectofold_ros import contract
-from flectofold_ros.interfaces import client, publisher, subscription
+from flectofold_ros.runtime.interfaces import client, publisher, subscription
+from flectofold_ros.wire import contract
 
 pytestmark = pytest.mark.graph
 PANELS = ('r00c00', 'r00c01')

@@ -13,8 +13,8 @@ from std_srvs.srv import Trigger
 
 from flectofold_model.actuation import actuated_like, ActuationModel, CushionMap
 from flectofold_model.facade.description import load_facade
-from flectofold_ros import contract, panel_states
-from flectofold_ros.interfaces import client, publisher, subscription
+from flectofold_ros.runtime.interfaces import client, publisher, subscription
+from flectofold_ros.wire import contract, panel_states
 
 PANEL = 'r02c03'
 NS = contract.panel_namespace(PANEL)

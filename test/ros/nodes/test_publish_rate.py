@@ -11,8 +11,8 @@ import pytest
 from ros_graph import domain_for, Graph
 from std_msgs.msg import Float64
 
-from flectofold_ros import contract, panel_states
-from flectofold_ros.interfaces import publisher, subscription
+from flectofold_ros.runtime.interfaces import publisher, subscription
+from flectofold_ros.wire import contract, panel_states
 
 pytestmark = pytest.mark.graph
 #: Process -> (panels, asked publish rate [Hz], heartbeat [s]); the loop runs at 10 Hz.

@@ -22,8 +22,8 @@ from std_msgs.msg import Float64
 
 from flectofold_model.facade.description import build_facade
 from flectofold_model.scheduling.facade_schedule import scheduler_parameters
-from flectofold_ros import contract, panel_states
-from flectofold_ros.interfaces import publisher, subscription
+from flectofold_ros.runtime.interfaces import publisher, subscription
+from flectofold_ros.wire import contract, panel_states
 
 pytestmark = pytest.mark.graph
 SUN_PATH = Path(__file__).parents[2] / 'data' / 'sun_path_stuttgart_2026-06-21.csv'

@@ -19,9 +19,9 @@ from ros_graph import domain_for
 from rosgraph_msgs.msg import Clock
 
 from flectofold_model.environment.sun import epoch_from_iso, Site, sun_vector_enu
-from flectofold_ros import contract
-from flectofold_ros.interfaces import publisher, subscription
 from flectofold_ros.nodes.sun_position import SunPositionNode
+from flectofold_ros.runtime.interfaces import publisher, subscription
+from flectofold_ros.wire import contract
 
 pytestmark = pytest.mark.graph
 #: rcl's log topic (not the package's): latched, so that a late probe hears the start-up.
@@ -239,7 +239,7 @@ def test_executable_refuses_bad_parameters_without_a_traceback(argument, named):
 
 def _panel_states_message(panel_ids):
     from sensor_msgs.msg import PointCloud2, PointField
-    from flectofold_ros import panel_states
+    from flectofold_ros.wire import panel_states
     table = panel_states.new_table(len(panel_ids))
     table['row'], table['column'] = panel_states.id_numbers(panel_ids)
     return panel_states.fill_message(PointCloud2(), table, Time(sec=1), PointField)

@@ -21,10 +21,10 @@ from rosbags.typesys import get_typestore, Stores
 from ruamel.yaml import YAML
 from std_msgs.msg import Float64
 
-from flectofold_ros import contract
-from flectofold_ros.interfaces import publisher, subscription
 from flectofold_ros.nodes.bag_recorder import FLUSH_PERIOD_S
 from flectofold_ros.recording.bag_segments import check_bag
+from flectofold_ros.runtime.interfaces import publisher, subscription
+from flectofold_ros.wire import contract
 
 pytestmark = pytest.mark.graph
 TOPIC = contract.Topic('/test/count', 'std_msgs/msg/Float64')

@@ -12,12 +12,12 @@ from flectofold_model.actuation import ATMOSPHERIC_PRESSURE_PA
 from flectofold_model.facade import DEFAULT_FACADE, load_facade
 from flectofold_model.kinematics.hexagon import DEFAULT_HEXAGON_TOPOLOGY, HexagonTopology
 from flectofold_model.kinematics.kinds import fold_model_of
-from flectofold_ros import contract, panel_states
 from flectofold_ros.recording.bag_segments import BagError, SegmentedBagWriter
 from flectofold_ros.rerun.bag_to_rrd import convert
 from flectofold_ros.rerun.scene import (facade_topology, FACADE_VERTEX_BUDGET, FacadeScene,
                                         feed)
 from flectofold_ros.rerun.sinks import check_rrd_path, open_recording
+from flectofold_ros.wire import contract, panel_states
 
 T0_NS = 1782036000 * 10**9  # 2026-06-21 10:00 UTC
 STEP_NS = 10**8

@@ -12,9 +12,9 @@ from sensor_msgs.msg import PointCloud2, PointField
 from flectofold_model.actuation import ATMOSPHERIC_PRESSURE_PA
 from flectofold_model.facade.description import DEFAULT_FACADE, load_facade
 from flectofold_model.kinematics.mesh import fold_mesh
-from flectofold_ros import contract, panel_states
-from flectofold_ros.interfaces import publisher, subscription
 from flectofold_ros.rerun.scene import FacadeScene
+from flectofold_ros.runtime.interfaces import publisher, subscription
+from flectofold_ros.wire import contract, panel_states
 
 pytestmark = pytest.mark.graph
 T0_NS = 1782036000 * 10**9

@@ -25,7 +25,6 @@ from flectofold_model.kinematics import elastica
 from flectofold_model.kinematics.closure import FoldModel
 from flectofold_model.kinematics.mesh import DEFAULT_TOPOLOGY, fold_mesh
 from flectofold_model.kinematics.panel import PanelBatch
-from flectofold_ros import contract, panel_states
 from flectofold_ros.recording.bag_segments import BagError, SegmentedBagWriter
 from flectofold_ros.rerun.bag_to_rrd import convert
 from flectofold_ros.rerun.scene import (CLOSURE_BAND, facade_topology, FACADE_VERTEX_BUDGET,
@@ -34,6 +33,7 @@ from flectofold_ros.rerun.scene import (CLOSURE_BAND, facade_topology, FACADE_VE
                                         scene_topics)
 from flectofold_ros.rerun.sinks import (check_rrd_path, choose_sinks, open_recording,
                                         spawn_viewer)
+from flectofold_ros.wire import contract, panel_states
 
 T0_NS = 1782036000 * 10**9  # 2026-06-21 10:00 UTC
 STEP_NS = 10**8  # the panels' 10 Hz state grid

@@ -6,10 +6,10 @@ from rrd_reading import Rrd
 
 from flectofold_model.actuation import DEMONSTRATOR_ACTUATED
 from flectofold_model.structure.panel import PanelMesh, structural_path
-from flectofold_ros.colours import strain_colours, STRAIN_RED_MULTIPLE
 from flectofold_ros.commands import fold_table
 from flectofold_ros.rerun.structure_scene import (PEAK_HINGE_STRAIN, save_structural_path,
                                                   SHEET, TIMELINE, vertex_strain)
+from flectofold_ros.wire.colours import strain_colours, STRAIN_RED_MULTIPLE
 
 QUICK = PanelMesh(20, 2, 1, 2)
 ALLOWABLE = 0.007

@@ -1,8 +1,8 @@
 """The contract's topics as rclpy objects: message classes, QoS, publishers, subscriptions.
 
-Nodes create every publisher and subscription of a :class:`~flectofold_ros.contract.Topic`
+Nodes create every publisher and subscription of a :class:`~flectofold_ros.wire.contract.Topic`
 through :func:`publisher` and :func:`subscription`, so the name, the type and the QoS come
-from :mod:`flectofold_ros.contract` and nowhere else.
+from :mod:`flectofold_ros.wire.contract` and nowhere else.
 """
 
 import importlib
@@ -22,7 +22,7 @@ def message_class(msgtype):
 
 
 def qos_profile(qos):
-    """Return the rclpy ``QoSProfile`` of a :class:`~flectofold_ros.contract.Qos`."""
+    """Return the rclpy ``QoSProfile`` of a :class:`~flectofold_ros.wire.contract.Qos`."""
     return QoSProfile(
         depth=qos.depth,
         reliability=ReliabilityPolicy.RELIABLE if qos.reliable else ReliabilityPolicy.BEST_EFFORT,
@@ -30,7 +30,7 @@ def qos_profile(qos):
 
 
 def publisher(node, topic):
-    """Create ``node``'s publisher of a contract :class:`~flectofold_ros.contract.Topic`."""
+    """Create ``node``'s publisher of a contract :class:`~flectofold_ros.wire.contract.Topic`."""
     return node.create_publisher(message_class(topic.msgtype), topic.name, qos_profile(topic.qos))
 
 

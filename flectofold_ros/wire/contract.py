@@ -1,8 +1,9 @@
 """The public contract of flectofold_ros: every topic, its type and QoS, the words on it.
 
 Pure Python (no rclpy), so that the nodes, the recorder, the Rerun scene, the bringup's plan,
-the launch file and the tests all take names from here; :mod:`flectofold_ros.interfaces` turns
-them into rclpy objects. The contract is documented, table by table, in ``msg_docs/``.
+the launch file and the tests all take names from here;
+:mod:`flectofold_ros.runtime.interfaces` turns them into rclpy objects. The contract is
+documented, table by table, in ``msg_docs/``.
 
 **One rule for names: every topic and service name is absolute.** Panel topics live under
 ``/facade/<panel id>/``, the facade's own under ``/facade/``; ``/clock`` and ``/diagnostics``
@@ -124,7 +125,7 @@ FACADE_STREAM = Qos(depth=100)
 #: Every flap of one panel process's panels, one message per state (``facade_state.md``).
 FACADE_JOINT_STATES = Topic(f'{FACADE_NAMESPACE}/joint_states', 'sensor_msgs/msg/JointState',
                             FACADE_STREAM)
-#: Every panel of one panel process, one point each (:mod:`flectofold_ros.panel_states`).
+#: Every panel of one panel process, one point each (:mod:`flectofold_ros.wire.panel_states`).
 PANEL_STATES = Topic(f'{FACADE_NAMESPACE}/panel_states', 'sensor_msgs/msg/PointCloud2',
                      FACADE_STREAM)
 #: Every panel's commanded closure in one message (``panel_node.md``): ``name`` panel ids,

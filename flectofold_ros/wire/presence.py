@@ -31,7 +31,7 @@ from dataclasses import dataclass
 import os
 import socket
 
-from flectofold_ros import contract
+from flectofold_ros.wire import contract
 
 #: Where every facade process announces itself: latched, one message per process.
 INSTANCES = contract.Topic('/flectofold/instances', 'diagnostic_msgs/msg/DiagnosticStatus',

@@ -13,7 +13,7 @@ from numbers import Real
 
 import numpy as np
 
-from flectofold_ros import contract
+from flectofold_ros.wire import contract
 
 
 class FaultRequestError(ValueError):

@@ -297,5 +297,5 @@ def asked_for_help(args):
 
 def print_usage(usage, specs):
     """Print the usage line and every parameter of ``specs`` (``--help``)."""
-    from flectofold_ros.parameters import usage_lines
+    from flectofold_ros.runtime.parameters import usage_lines
     print('\n'.join(usage_lines(usage, specs)))

@@ -3,8 +3,8 @@
 A console script imports its module before it runs anything, and importing rclpy, numpy,
 scipy and pvlib takes a second or two: a Ctrl-C then would print a ``KeyboardInterrupt``
 traceback from deep in an import. Each entry point here installs the package's stop-signal
-handling (:mod:`flectofold_ros.runner`) first, with nothing but the standard library loaded,
-then imports the executable's module and runs its ``main``. ``python -m flectofold_ros NAME
+handling (:mod:`flectofold_ros.runtime.runner`) first, with nothing but the standard library
+loaded, then imports the executable's module and runs its ``main``. ``python -m flectofold_ros NAME
 ARGS`` does the same; the ``facade`` bringup starts its children that way.
 """
 
@@ -12,7 +12,7 @@ import importlib
 import os
 import sys
 
-from flectofold_ros.runner import die_with_parent, Interrupted, stop_signals
+from flectofold_ros.runtime.runner import die_with_parent, Interrupted, stop_signals
 
 #: Executable -> (module with ``main(args=None)``, exit code when stopped while it loads):
 #: a node asked to stop ends normally (0), a day or a command cut short says so (130).
@@ -63,7 +63,7 @@ def run(name, args=None, ending=False):
 
     ``ending``: the process ends when this returns (a console script, ``python -m``), so the
     stop signals stay ignored from the end of ``main`` to the exit
-    (:meth:`~flectofold_ros.runner.StopSignals.leaving`); a caller that goes on gets its
+    (:meth:`~flectofold_ros.runtime.runner.StopSignals.leaving`); a caller that goes on gets its
     handlers back.
     """
     module_name, stopped_code = EXECUTABLES[name]

@@ -1,6 +1,6 @@
 """A node's eye on its ROS domain: another facade's processes, a second source of an input.
 
-Two parts, the rules of both in :mod:`flectofold_ros.presence`:
+Two parts, the rules of both in :mod:`flectofold_ros.wire.presence`:
 
 - :class:`Presence`: the process's announcement on ``/flectofold/instances`` and what it
   hears of others; :meth:`Presence.probe` at start (refuse when another live instance holds
@@ -18,9 +18,9 @@ from diagnostic_msgs.msg import DiagnosticStatus, KeyValue
 from rclpy.clock import Clock, ClockType
 from rclpy.executors import SingleThreadedExecutor
 
-from flectofold_ros import contract, presence
-from flectofold_ros.diagnostics import ERROR
-from flectofold_ros.interfaces import publisher, subscription
+from flectofold_ros.runtime.diagnostics import ERROR
+from flectofold_ros.runtime.interfaces import publisher, subscription
+from flectofold_ros.wire import contract, presence
 
 #: Wall seconds a process listens at start for the announcements of others, at least (DDS
 #: discovery on the loopback takes well under one; a busy machine more) ...
@@ -42,7 +42,7 @@ CHECK_PERIOD_S = 1.0
 class Presence:
     """What ``node``'s process announces of itself (``own``), and the live instances it hears.
 
-    ``own`` (a :class:`~flectofold_ros.presence.Instance`) may be set after construction,
+    ``own`` (a :class:`~flectofold_ros.wire.presence.Instance`) may be set after construction,
     before :meth:`probe`: listening starts at once. ``on_conflict(line)`` is called once per
     instance that holds what this one holds, heard after :meth:`announce`.
     """
@@ -51,7 +51,8 @@ class Presence:
         self.node, self.own = node, own
         self._key = (socket.gethostname(), os.getpid())
         self.others = {}
-        """``(host, pid, role)`` -> :class:`~flectofold_ros.presence.Instance`, heard, alive."""
+        """``(host, pid, role)`` -> :class:`~flectofold_ros.wire.presence.Instance`, heard,
+        alive."""
         self.conflicts = []
         """Lines naming the instances in conflict with this one, heard since it announced."""
         self._on_conflict = on_conflict
@@ -194,7 +195,7 @@ class SourceGuard:
     """Inputs of ``node`` with one source by design: a second publisher noticed and named.
 
     ``topics`` are contract topic names (each with its policy in
-    :data:`~flectofold_ros.presence.ONE_SOURCE`). :meth:`doubled` answers at each message;
+    :data:`~flectofold_ros.wire.presence.ONE_SOURCE`). :meth:`doubled` answers at each message;
     a timer logs each change (ERROR when a second publisher comes, naming every publisher;
     INFO when one is left) and counts the times a second one came.
     """

@@ -8,12 +8,12 @@ bringup's monitor, the Rerun bridge and the bag converter all read it through
 
 The message is the standard way to put a stamped table of typed, named columns on a topic;
 a panel id ``rNNcNN`` travels as its two numbers, ``fault`` and ``status`` as their index in
-:data:`flectofold_ros.contract.FAULTS` and :data:`~flectofold_ros.contract.STATUSES`.
+:data:`flectofold_ros.wire.contract.FAULTS` and :data:`~flectofold_ros.wire.contract.STATUSES`.
 """
 
 import numpy as np
 
-from flectofold_ros import contract
+from flectofold_ros.wire import contract
 
 #: ``sensor_msgs/PointField`` datatype numbers.
 UINT8, UINT16, FLOAT32 = 2, 4, 7

@@ -1,6 +1,6 @@
 """What the facade's markers show, kept apart from ROS: folded triangles, colours, changes.
 
-:class:`FacadeMarkers` takes panel states (:mod:`flectofold_ros.panel_states` tables), keeps
+:class:`FacadeMarkers` takes panel states (:mod:`flectofold_ros.wire.panel_states` tables), keeps
 each panel's triangles in the site ENU frame (from the one folded-facade mesher,
 :class:`~flectofold_model.facade.folded_mesh.FacadeMesher`) and says which panels changed
 since it was last asked. The node (:mod:`flectofold_ros.nodes.facade_markers`) turns them
@@ -10,7 +10,7 @@ into ``visualization_msgs/Marker`` messages.
 import numpy as np
 
 from flectofold_model.facade.folded_mesh import FacadeMesher
-from flectofold_ros import colours, panel_states
+from flectofold_ros.wire import colours, panel_states
 
 #: The arrow toward the sun starts at the facade's centre and is this long [m].
 SUN_ARROW_M = 3.0
@@ -82,7 +82,7 @@ class FacadeMarkers:
             self._meshed_rad[panels] = angle
 
     def colours(self):
-        """(N, 4) uint8 RGBA of every panel now (:func:`flectofold_ros.colours.panel_colours`)."""
+        """(N, 4) uint8 RGBA of every panel now (:func:`.colours.panel_colours`)."""
         return colours.panel_colours(self.closure, self.seen, self.fault)
 
     def colour(self, index):
