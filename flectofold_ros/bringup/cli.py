@@ -34,7 +34,7 @@ from flectofold_ros.nodes.panel import MAX_CALL_S, start_panels
 from flectofold_ros.nodes.panel_group import group_slice
 from flectofold_ros.nodes.sun_position import SunPositionNode
 from flectofold_ros.nodes.weather import WEATHER_SITE_TOLERANCE_DEG, WeatherNode
-from flectofold_ros.recording.bag_segments import check_bag
+from flectofold_ros.recording import check_bag
 from flectofold_ros.runtime import diagnostics
 from flectofold_ros.runtime.domain_watch import Presence, StartCheck
 from flectofold_ros.runtime.interfaces import publisher

@@ -12,7 +12,7 @@ Details: ``msg_docs/bag_recorder.md``.
 import argparse
 import sys
 
-from flectofold_ros.recording.bag_segments import BagError
+from flectofold_ros.recording import BagError
 from flectofold_ros.runtime.runner import run_command
 
 

@@ -14,7 +14,7 @@ import sys
 import time
 
 from flectofold_model.facade import DEFAULT_FACADE, load_facade
-from flectofold_ros.recording.bag_segments import BagError, unreadable_segments
+from flectofold_ros.recording import BagError, unreadable_segments
 from flectofold_ros.rerun.bag_to_rrd import convert
 from flectofold_ros.runtime.runner import Interrupted, run_command
 

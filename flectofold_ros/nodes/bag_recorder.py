@@ -23,7 +23,7 @@ from rclpy.clock import Clock, ClockType
 from rclpy.event_handler import SubscriptionEventCallbacks, UnsupportedEventTypeError
 from rclpy.node import Node
 
-from flectofold_ros.recording.bag_segments import BagError, out_of_room, SegmentedBagWriter
+from flectofold_ros.recording import BagError, out_of_room, SegmentedBagWriter
 from flectofold_ros.runtime import diagnostics
 from flectofold_ros.runtime.interfaces import message_class, offered, publisher, subscription
 from flectofold_ros.runtime.parameters import declare_all, double, string, strings

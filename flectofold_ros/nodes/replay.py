@@ -11,8 +11,8 @@ from rclpy.clock import Clock, ClockType
 from rclpy.duration import Duration
 from rclpy.node import Node
 
-from flectofold_ros.recording.bag_segments import (bag_topics, BagError, read_messages,
-                                                   require_topics)
+from flectofold_ros.recording import (bag_topics, BagError, read_messages,
+                                      require_topics)
 from flectofold_ros.runtime.interfaces import publisher
 from flectofold_ros.runtime.runner import Program, run_nodes
 from flectofold_ros.wire import contract

@@ -3,7 +3,7 @@
 A recorder killed with SIGKILL (or a power cut) leaves its open segment unfinished: an MCAP
 file without summary and footer in ``<bag>/.open_segment/``, whose complete chunks are all
 there but which rosbags' reader cannot open, and a ``metadata.yaml`` that lists only the closed
-segments (see :mod:`flectofold_ros.recording.bag_segments`). :func:`reindex`:
+segments (see :mod:`flectofold_ros.recording`). :func:`reindex`:
 
 1. moves the unfinished file next to the closed ones, as the next segment file
    ``<name>_<i>.mcap`` (a segment file that rosbags cannot open stays where it is);
@@ -30,7 +30,7 @@ from mcap.stream_reader import StreamReader
 from rosbags.rosbag2 import Reader
 from rosbags.typesys import get_typestore, Stores
 
-from flectofold_ros.recording.bag_segments import (
+from flectofold_ros.recording import (
     BagError, fsync_dir, is_latched, load_bag_yaml, lock_bag, METADATA, PathLike, read_metadata,
     RecordedTopic, Segment, segment_files, segment_index, SegmentedBagWriter, unfinished_segment,
     write_metadata)

@@ -13,8 +13,8 @@ import time
 from rosbags.serde import SerdeError
 from rosbags.typesys import get_typestore, Stores
 
-from flectofold_ros.recording.bag_segments import (bag_topics, BagError, read_messages,
-                                                   require_topics, topic_list)
+from flectofold_ros.recording import (bag_topics, BagError, read_messages,
+                                      require_topics, topic_list)
 from flectofold_ros.rerun.scene import FacadeScene, feed, scene_topics
 from flectofold_ros.rerun.sinks import check_rrd_path, open_recording
 from flectofold_ros.wire import contract

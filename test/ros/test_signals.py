@@ -15,7 +15,7 @@ import pytest
 from ros_graph import BIN, domain_for, signal_group_and_wait
 from rosbags.rosbag2 import Reader
 
-from flectofold_ros.recording.bag_segments import SegmentedBagWriter
+from flectofold_ros.recording import SegmentedBagWriter
 from flectofold_ros.wire import contract
 
 pytestmark = pytest.mark.graph
@@ -116,7 +116,7 @@ def test_python_m_flectofold_ros_runs_an_executable():
 KILLED_RECORDING = """
 import os, sys
 from rosbags.typesys import get_typestore, Stores
-from flectofold_ros.recording.bag_segments import SegmentedBagWriter
+from flectofold_ros.recording import SegmentedBagWriter
 ts = get_typestore(Stores.ROS2_JAZZY)
 writer = SegmentedBagWriter(sys.argv[1], max_segment_s=1.0)
 writer.add_topic('/setpoint', 'std_msgs/msg/Float64')

@@ -21,7 +21,7 @@ from sensor_msgs.msg import PointCloud2, PointField
 
 from flectofold_model.actuation import ATMOSPHERIC_PRESSURE_PA
 from flectofold_model.facade.description import DEFAULT_FACADE, load_facade
-from flectofold_ros.recording.bag_segments import SegmentedBagWriter
+from flectofold_ros.recording import SegmentedBagWriter
 from flectofold_ros.runtime.interfaces import subscription
 from flectofold_ros.wire import contract, panel_states
 

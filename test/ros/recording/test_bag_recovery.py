@@ -12,8 +12,8 @@ from rosbags.rosbag2 import Reader
 from rosbags.typesys import get_typestore, Stores
 from ruamel.yaml import YAML
 
-from flectofold_ros.recording import bag_segments
-from flectofold_ros.recording.bag_segments import BagError, check_bag, SegmentedBagWriter
+from flectofold_ros import recording
+from flectofold_ros.recording import BagError, check_bag, SegmentedBagWriter
 from flectofold_ros.recording.recovery import reindex
 
 TS = get_typestore(Stores.ROS2_JAZZY)
@@ -27,7 +27,7 @@ KILLED_WRITER = textwrap.dedent("""
     import os, sys
     sys.path.insert(0, sys.argv[2])
     from rosbags.typesys import get_typestore, Stores
-    from flectofold_ros.recording.bag_segments import SegmentedBagWriter
+    from flectofold_ros.recording import SegmentedBagWriter
     ts = get_typestore(Stores.ROS2_JAZZY)
     writer = SegmentedBagWriter(sys.argv[1], max_segment_s=1.0)
     writer.add_topic('/setpoint', 'std_msgs/msg/Float64')
@@ -100,7 +100,7 @@ def test_reindex_recovers_every_flushed_message(tmp_path):
     assert check_bag(bag).complete, check_bag(bag).summary()
     assert mcap_counts(bag) == listed_counts(bag) == {
         'killed_0.mcap': 101, 'killed_1.mcap': 100, 'killed_2.mcap': 100, 'killed_3.mcap': 50}
-    assert bag_segments.bag_topics(bag)['/mode'] == ('std_msgs/msg/String', True)
+    assert recording.bag_topics(bag)['/mode'] == ('std_msgs/msg/String', True)
     assert 'recovered 50 messages' in '\n'.join(report.lines())
 
 
@@ -286,20 +286,20 @@ def test_a_bag_with_a_damaged_segment_is_refused_naming_the_file(damaged_bag):
     with pytest.raises(BagError, match=r'segment file killed_1.mcap \(.*\) cannot be read; '
                                        rf'`bag_reindex {damaged_bag}` keeps its whole messages, '
                                        r'or --skip-unreadable plays the rest'):
-        bag_segments.bag_topics(damaged_bag)
+        recording.bag_topics(damaged_bag)
     with pytest.raises(BagError, match='killed_1.mcap'):
-        list(bag_segments.read_messages(damaged_bag))
+        list(recording.read_messages(damaged_bag))
 
 
 def test_when_asked_the_readable_rest_of_a_damaged_bag_is_read_in_time_order(damaged_bag):
-    topics = bag_segments.bag_topics(damaged_bag, skip_unreadable=True)
+    topics = recording.bag_topics(damaged_bag, skip_unreadable=True)
     assert topics == {'/mode': ('std_msgs/msg/String', True),
                       '/setpoint': (FLOAT, False)}
     values = [TS.deserialize_cdr(raw, FLOAT).data for topic, _, _, raw in
-              bag_segments.read_messages(damaged_bag, ['/setpoint'], skip_unreadable=True)]
+              recording.read_messages(damaged_bag, ['/setpoint'], skip_unreadable=True)]
     assert values == list(range(100)) + list(range(200, 350))
     with pytest.raises(BagError, match='has no topic /nothing'):
-        bag_segments.read_messages(damaged_bag, ['/nothing'], skip_unreadable=True)
+        recording.read_messages(damaged_bag, ['/nothing'], skip_unreadable=True)
 
 
 def test_replay_names_the_file_it_refuses(damaged_bag):

@@ -15,9 +15,9 @@ from rosbags.rosbag2 import Reader, Writer
 from rosbags.typesys import get_typestore, Stores
 from ruamel.yaml import YAML
 
-from flectofold_ros.recording import bag_segments
-from flectofold_ros.recording.bag_segments import (bag_topics, BagError, read_messages,
-                                                   SegmentedBagWriter)
+from flectofold_ros import recording
+from flectofold_ros.recording import (bag_topics, BagError, read_messages,
+                                      SegmentedBagWriter)
 
 TS = get_typestore(Stores.ROS2_JAZZY)
 FLOAT = 'std_msgs/msg/Float64'
@@ -109,12 +109,12 @@ def test_size_rotation_lists_every_segment(tmp_path):
     assert counts == {'/setpoint': 400, '/pressure': 400, '/mode': 1}
     assert total == 801
     payload = len(cdr_string('auto')) + 400 * (len(cdr_float(0)) + len(cdr_pressure(0)))
-    assert writer.bytes_written == payload + 801 * bag_segments.MCAP_MESSAGE_OVERHEAD
+    assert writer.bytes_written == payload + 801 * recording.MCAP_MESSAGE_OVERHEAD
 
 
 def test_size_rotation_at_limit(tmp_path):
     bag = tmp_path / 'exact'
-    size = len(cdr_float(0)) + bag_segments.MCAP_MESSAGE_OVERHEAD
+    size = len(cdr_float(0)) + recording.MCAP_MESSAGE_OVERHEAD
     with SegmentedBagWriter(bag, max_segment_bytes=10 * size) as writer:
         writer.add_topic('/setpoint', FLOAT)
         for i in range(45):
@@ -158,7 +158,7 @@ CRASHING_RECORDER = textwrap.dedent("""
     import os, sys
     sys.path.insert(0, sys.argv[2])
     from rosbags.typesys import get_typestore, Stores
-    from flectofold_ros.recording.bag_segments import SegmentedBagWriter
+    from flectofold_ros.recording import SegmentedBagWriter
     ts = get_typestore(Stores.ROS2_JAZZY)
     writer = SegmentedBagWriter(sys.argv[1], max_segment_s=1.0)
     writer.add_topic('/setpoint', 'std_msgs/msg/Float64')
@@ -179,7 +179,7 @@ def test_hard_kill_keeps_closed_segments(tmp_path):
                           capture_output=True, text=True, timeout=60)
     assert done.returncode == 1, done.stderr
     assert done.stdout.split() == ['3']
-    assert (bag / bag_segments.WORKING_DIR).is_dir()      # the open segment was lost
+    assert (bag / recording.WORKING_DIR).is_dir()      # the open segment was lost
     counts, total = reader_counts(bag)
     assert counts == {'/setpoint': 300, '/mode': 1}
     assert total == 301
@@ -292,8 +292,8 @@ def test_os_error_while_writing_becomes_bag_error(tmp_path, monkeypatch):
     with pytest.raises(BagError, match=r'cannot write to bag .*full: No space left on device') \
             as full:
         writer.write('/setpoint', 100, cdr_float(0))
-    assert bag_segments.out_of_room(full.value)  # the recorder's exit code NO_ROOM
-    assert not bag_segments.out_of_room(BagError('two types on one topic'))
+    assert recording.out_of_room(full.value)  # the recorder's exit code NO_ROOM
+    assert not recording.out_of_room(BagError('two types on one topic'))
     with pytest.raises(BagError, match=r'stopped recording after an error: .*No space left'):
         writer.write('/setpoint', 101, cdr_float(0))
     writer.close()

@@ -22,7 +22,7 @@ from ruamel.yaml import YAML
 from std_msgs.msg import Float64
 
 from flectofold_ros.nodes.bag_recorder import FLUSH_PERIOD_S
-from flectofold_ros.recording.bag_segments import check_bag
+from flectofold_ros.recording import check_bag
 from flectofold_ros.runtime.interfaces import publisher, subscription
 from flectofold_ros.wire import contract
 

@@ -11,7 +11,7 @@ from sensor_msgs.msg import FluidPressure
 from std_msgs.msg import Float64, String
 
 from flectofold_model.facade.description import build_facade
-from flectofold_ros.recording.bag_segments import bag_topics, read_messages
+from flectofold_ros.recording import bag_topics, read_messages
 from flectofold_ros.rerun.bag_to_rrd import convert, decode
 from flectofold_ros.runtime.interfaces import publisher, subscription
 from flectofold_ros.wire import contract

@@ -25,7 +25,7 @@ from flectofold_model.kinematics import elastica
 from flectofold_model.kinematics.closure import FoldModel
 from flectofold_model.kinematics.mesh import DEFAULT_TOPOLOGY, fold_mesh
 from flectofold_model.kinematics.panel import PanelBatch
-from flectofold_ros.recording.bag_segments import BagError, SegmentedBagWriter
+from flectofold_ros.recording import BagError, SegmentedBagWriter
 from flectofold_ros.rerun.bag_to_rrd import convert
 from flectofold_ros.rerun.scene import (CLOSURE_BAND, facade_topology, FACADE_VERTEX_BUDGET,
                                         FacadeScene, FAULT_RGBA, feed, k_from_sag,

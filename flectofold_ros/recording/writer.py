@@ -1,4 +1,4 @@
-"""Crash-tolerant rosbag2 recording in rotated MCAP segments, and reading it back for replay.
+"""Crash-tolerant rosbag2 recording in rotated MCAP segments: the bag's layout and its writer.
 
 Pure Python on top of ``rosbags`` (no rclpy), so it runs and is tested without ROS.
 
@@ -21,14 +21,15 @@ registered topics are listed, with count 0 if none of their messages is in a clo
 It is written at creation (no files, no topics), and rewritten each time a
 segment closes, after the segment's ``.mcap`` was moved out of the working directory; every
 write is atomic (temp file, fsync, ``os.replace``). It is written and read here with PyYAML's
-safe dumper and loader (libyaml's where present): :func:`write_metadata`, :func:`read_metadata`.
+safe dumper (libyaml's where present), :func:`write_metadata`, and read with its safe loader,
+:func:`.reading.read_metadata`.
 
 rosbags' ``Reader`` (checked with rosbags 0.11.9) opens such a directory as one bag: it reads
 ``metadata.yaml``, opens every file of ``relative_file_paths`` (all must exist) and ignores any
 other entry, so the hidden working directory does not disturb it. It matches the connections of
 ``metadata.yaml`` to each file's MCAP channels by topic, type and offered QoS, which agree here
 because both are generated from the same ``Qos`` values. It yields the messages file after file,
-so :func:`read_messages` merges the segments by timestamp itself (late messages can make
+so :func:`.reading.read_messages` merges the segments by timestamp itself (late messages can make
 segments overlap in time). The rosbag2 metadata record inside each ``.mcap`` still names the
 working file (``.open_segment.mcap``); readers use the bag's ``metadata.yaml`` instead.
 
@@ -46,7 +47,7 @@ system, so what was written before the last flush is recoverable. A crash betwee
 segment and rewriting ``metadata.yaml`` leaves an unlisted ``<name>_<i>.mcap`` that readers
 ignore and ``reindex`` lists. After an ``OSError`` while writing (a full disk, say) the writer
 aborts the open segment the same way and refuses further writes; the bag keeps its closed
-segments. :func:`check_bag` tells a complete bag from one that needs ``bag_reindex``. The
+segments. :func:`.checking.check_bag` tells a complete bag from one that needs ``bag_reindex``. The
 writer holds an exclusive ``flock`` on the bag directory until it is closed
 (:func:`lock_bag`), so that ``reindex`` does not touch a bag being written.
 
@@ -59,25 +60,23 @@ file size lags) or when the new message is at least ``max_segment_s`` after the 
 message. A segment may thus exceed the limit by one message; each file also carries a fixed part
 of a few KiB (message definitions, channels, summary; 5.8 kB for Float64, FluidPressure and
 String). Without rotation the whole recording is one segment that becomes readable only at
-:meth:`SegmentedBagWriter.close`. No ROS is installed where this was written, so ``ros2 bag
+:meth:`SegmentedBagWriter.close`. rosbag2 itself has no wheels for the ROS here, so ``ros2 bag
 play``/``info`` on these bags is untested; the layout and field names follow rosbag2's own split
-bags.
+bags, and the tests read them with rosbags and with the mcap library.
 """
 
 import errno
 import fcntl
-import functools
-import heapq
 import math
 import os
 from pathlib import Path
 import shutil
 from types import TracebackType
-from typing import Callable, Iterable, Iterator, NamedTuple, Optional, Union
+from typing import Callable, NamedTuple, Optional, Union
 
-from rosbags.interfaces import (Connection, ConnectionExtRosbag2, Qos, QosDurability, QosHistory,
-                                QosLiveliness, QosReliability, QosTime)
-from rosbags.rosbag2 import Reader, StoragePlugin, Writer
+from rosbags.interfaces import (Connection, Qos, QosDurability, QosHistory, QosLiveliness,
+                                QosReliability, QosTime)
+from rosbags.rosbag2 import StoragePlugin, Writer
 from rosbags.rosbag2.metadata import dump_qos_v9
 from rosbags.rosbag2.storage_mcap import McapWriter
 from rosbags.typesys import get_typestore, Stores
@@ -86,11 +85,11 @@ import yaml
 BAG_VERSION = 9
 """rosbag2 metadata version written (Jazzy's)."""
 WORKING_DIR = '.open_segment'
+"""Name of the hidden working directory of the open segment inside the bag."""
 #: The first bytes of every MCAP file (the MCAP specification, "Magic").
 MCAP_MAGIC = b'\x89MCAP0\r\n'
 METADATA = 'metadata.yaml'
 """The bag's metadata file."""
-"""Name of the hidden working directory of the open segment inside the bag."""
 QOS_DEPTH = 10
 """History depth of the offered QoS recorded per topic [messages]."""
 MCAP_MESSAGE_OVERHEAD = 47
@@ -575,360 +574,3 @@ def _file_entry(segment: Segment) -> dict:
         'duration': {'nanoseconds': segment.end_ns - segment.start_ns},
         'message_count': sum(segment.counts.values()),
     }
-
-
-# -- reading -------------------------------------------------------------------------------------
-
-
-@functools.lru_cache(maxsize=1)
-def _bag_loader() -> type:
-    """Return PyYAML's safe loader class, refusing a mapping that gives one key twice.
-
-    Made on first use: the rule lives in ``flectofold_model.safe_yaml``, and importing
-    ``flectofold_model`` takes about a second that a recorder's start, which reads no YAML,
-    should not spend.
-    """
-    from flectofold_model.safe_yaml import UniqueKeys
-    return type('BagLoader', (UniqueKeys, yaml.SafeLoader), {'_source': METADATA})
-
-
-def load_bag_yaml(text: str):
-    """Parse YAML of a bag (its metadata.yaml, a channel's offered QoS profiles).
-
-    With PyYAML's safe loader, the library :func:`write_metadata` writes with, refusing a key
-    given twice (:class:`~flectofold_model.safe_yaml.DuplicateKeyError`: one value would
-    silently win); the pure-Python composer, as libyaml's cannot be told to refuse them.
-    """
-    return yaml.load(text, Loader=_bag_loader())
-
-
-def read_metadata(path: Path):
-    """Return the parsed ``metadata.yaml`` of the bag directory at ``path``, as written.
-
-    Raises what reading and parsing raise (``OSError``, ``yaml.YAMLError``, ...).
-    """
-    return load_bag_yaml((path / METADATA).read_text())
-
-
-def _open_reader(path: PathLike) -> Reader:
-    """Open a rosbag2 bag (directory or single storage file) or raise BagError.
-
-    A bag directory one of whose segment files cannot be read is refused naming the file,
-    with the two ways on: ``bag_reindex`` (keeps its whole messages) or playing the rest.
-    """
-    bag = Path(path)
-    if not bag.exists():
-        raise BagError(f'bag {bag} does not exist')
-    try:
-        reader = Reader(bag)
-        reader.open()
-    except Exception as err:  # rosbags raises ReaderError, FileNotFoundError, KeyError, ...
-        unreadable = unreadable_segments(bag) if bag.is_dir() else []
-        if unreadable:
-            names = ', '.join(f'{name} ({why})' for name, why in unreadable)
-            raise BagError(f'bag {bag}: segment file {names} cannot be read; `bag_reindex '
-                           f'{bag}` keeps its whole messages, or --skip-unreadable plays the '
-                           f'rest') from err
-        raise BagError(f'{bag} is not a readable rosbag2 bag: {err}') from err
-    return reader
-
-
-def unreadable_segments(bag: Path) -> list[tuple[str, str]]:
-    """Segment files a bag directory's metadata lists that cannot be read: (name, reason)."""
-    try:
-        files = _segment_files(bag)
-    except Exception:  # no metadata or one that does not parse: no list to check
-        return []
-    found = []
-    for file in files:
-        try:
-            with Reader(file):
-                pass
-        except Exception as err:  # rosbags raises ReaderError, FileNotFoundError, ...
-            found.append((file.name, _one_line(err)))
-    return found
-
-
-def _one_line(error: Exception, limit: int = 120) -> str:
-    text = ' '.join(str(error).split()) or type(error).__name__
-    return text if len(text) <= limit else text[:limit - 3] + '...'
-
-
-def _readable_rest(path: PathLike, skip_unreadable: bool) -> Optional[list[Path]]:
-    """Return the readable segment files to play instead of the whole bag, or None.
-
-    Only with ``skip_unreadable``, for a bag directory some of whose segment files cannot be
-    read: the others, in the metadata's order. Each segment file is opened once.
-    """
-    bag = Path(path)
-    if not (skip_unreadable and bag.is_dir()):
-        return None
-    skipped = {name for name, _ in unreadable_segments(bag)}
-    return [file for file in _segment_files(bag) if file.name not in skipped] if skipped \
-        else None
-
-
-def _topics_of(files: list[Path]) -> dict[str, tuple[str, bool]]:
-    """Topics of segment files: name -> (msgtype, latched), the first file's that has it."""
-    topics: dict[str, tuple[str, bool]] = {}
-    for file in files:
-        with Reader(file) as reader:
-            for conn in reader.connections:
-                topics.setdefault(conn.topic, (conn.msgtype, is_latched(conn)))
-    return topics
-
-
-def is_latched(conn: Connection) -> bool:
-    ext = conn.ext
-    profiles = ext.offered_qos_profiles if isinstance(ext, ConnectionExtRosbag2) else []
-    return any(p.durability == QosDurability.TRANSIENT_LOCAL for p in profiles)
-
-
-def topic_list(topics: Iterable[str], shown: int = 6) -> str:
-    """Shorten a list of topic names to: the first ``shown``, then how many more."""
-    names = sorted(topics)
-    if not names:
-        return 'no topics'
-    more = f' and {len(names) - shown} more' if len(names) > shown else ''
-    return f'{len(names)} topics: {", ".join(names[:shown])}{more}'
-
-
-def bag_topics(path: PathLike, skip_unreadable: bool = False) -> dict[str, tuple[str, bool]]:
-    """Topics of a bag: name -> (msgtype, latched), latched from the offered QoS durability.
-
-    ``skip_unreadable``: of the segment files that can be read only (a bag directory).
-    """
-    files = _readable_rest(path, skip_unreadable)
-    if files is not None:
-        return _topics_of(files)
-    reader = _open_reader(path)
-    try:
-        return {conn.topic: (conn.msgtype, is_latched(conn)) for conn in reader.connections}
-    finally:
-        reader.close()
-
-
-def _selected(reader: Reader, path: PathLike,
-              topics: Optional[Iterable[str]]) -> list[Connection]:
-    """Select the connections of the requested topics; BagError names unknown ones."""
-    if topics is None:
-        return list(reader.connections)
-    if isinstance(topics, str):
-        topics = [topics]
-    wanted = set(topics)
-    require_topics(path, {conn.topic for conn in reader.connections}, wanted)
-    return [conn for conn in reader.connections if conn.topic in wanted]
-
-
-def require_topics(path: PathLike, have: Iterable[str], wanted: Iterable[str]) -> None:
-    """Raise BagError naming every topic of ``wanted`` that the bag at ``path`` lacks."""
-    have = set(have)
-    if missing := sorted(set(wanted) - have):
-        raise BagError(f'bag {path} has no topic {", ".join(missing)}; '
-                       f'it has {topic_list(have)}')
-
-
-def _segment_files(path: Path) -> list[Path]:
-    """Storage files of a bag directory, from its metadata.yaml."""
-    info = read_metadata(path)
-    return [path / Path(name).name
-            for name in info['rosbag2_bagfile_information']['relative_file_paths']]
-
-
-def _segment_messages(file: Path, topics: set[str]) -> Iterator[Message]:
-    """Messages of one storage file, in time order."""
-    with Reader(file) as reader:
-        conns = [conn for conn in reader.connections if conn.topic in topics]
-        if not conns:
-            return
-        for conn, t_ns, raw in reader.messages(connections=conns):
-            yield conn.topic, conn.msgtype, t_ns, bytes(raw)
-
-
-def read_messages(path: PathLike, topics: Optional[Iterable[str]] = None,
-                  skip_unreadable: bool = False) -> Iterator[Message]:
-    """Messages of a bag as ``(topic, msgtype, t_ns, raw)`` in time order over all segments.
-
-    ``t_ns`` is the recorded time [ns], ``raw`` the CDR bytes. ``topics`` restricts the
-    topics; a name the bag does not have raises BagError (before the first message), as does a
-    path that is not a bag. rosbags reads a split bag segment after segment, so uncompressed
-    MCAP segments are merged by timestamp here, in case late messages made them overlap.
-    ``skip_unreadable``: a bag directory's segment files that cannot be read are left out (see
-    :func:`unreadable_segments`), the others played.
-    """
-    files = _readable_rest(path, skip_unreadable)
-    if files is not None:
-        available = _topics_of(files)
-        names = set(available) if topics is None else {topics} if isinstance(
-            topics, str) else set(topics)
-        require_topics(path, available, names)
-        return heapq.merge(*(_segment_messages(file, names) for file in files),
-                           key=lambda message: message[2])
-    reader = _open_reader(path)
-    try:
-        conns = _selected(reader, path, topics)
-        bag = Path(path)
-        files = _segment_files(bag) if bag.is_dir() else [bag]
-        mergeable = (not reader.compression_mode
-                     and all(file.suffix == '.mcap' for file in files))
-    except BaseException:
-        reader.close()
-        raise
-    return _iterate(reader, conns, files if mergeable and len(files) > 1 else None)
-
-
-def _iterate(reader: Reader, conns: list[Connection],
-             files: Optional[list[Path]]) -> Iterator[Message]:
-    try:
-        if not conns:
-            return
-        if files is None:
-            for conn, t_ns, raw in reader.messages(connections=conns):
-                yield conn.topic, conn.msgtype, t_ns, bytes(raw)
-            return
-        names = {conn.topic for conn in conns}
-        yield from heapq.merge(*(_segment_messages(file, names) for file in files),
-                               key=lambda message: message[2])
-    finally:
-        reader.close()
-
-
-# -- checking ------------------------------------------------------------------------------------
-
-
-class BagCheck(NamedTuple):
-    """What :func:`check_bag` found in a bag directory.
-
-    ``complete``: metadata.yaml lists every segment file present, each opens with rosbags'
-    reader and holds the messages the metadata counts, and no unfinished segment is left.
-    """
-
-    path: Path
-    complete: bool
-    message_count: int
-    """Messages listed in metadata.yaml, all directly readable when ``complete`` [messages]."""
-    message_counts: dict[str, int]
-    """Listed messages per topic [messages]."""
-    files: list[str]
-    """Segment files listed in metadata.yaml."""
-    unfinished_segment: Optional[Path]
-    """The file of a segment that was never closed (the recording runs, or it was killed)."""
-    unfinished_bytes: int
-    """Size of ``unfinished_segment``, 0 if there is none [bytes]."""
-    unlisted_files: list[str]
-    """Segment files present but not listed in metadata.yaml."""
-    problems: list[str]
-    """Everything that makes the bag incomplete, one sentence each."""
-
-    def summary(self) -> str:
-        """One line: complete with its figures, or INCOMPLETE with the reasons and the fix."""
-        if self.complete:
-            return (f'bag {self.path}: complete, {self.message_count} messages in '
-                    f'{len(self.files)} file(s)')
-        return (f'bag {self.path}: INCOMPLETE: {"; ".join(self.problems)}; '
-                f'`bag_reindex {self.path}` recovers what is on disk')
-
-
-def check_bag(path: PathLike) -> BagCheck:
-    """Check whether the bag directory at ``path`` is complete; never raises for a bad bag.
-
-    Reads metadata.yaml and the summary of each segment file (not their messages), so it is
-    quick also for a long recording. Meant for after the recorder has stopped: while it runs,
-    its open segment makes the bag incomplete.
-    """
-    bag = Path(path)
-    problems: list[str] = []
-    info = _load_metadata(bag, problems)
-    listed = [Path(name).name for name in info.get('relative_file_paths') or []]
-    counts = {entry['topic_metadata']['name']: int(entry['message_count'])
-              for entry in info.get('topics_with_message_count') or []}
-    file_counts = {Path(entry['path']).name: int(entry['message_count'])
-                   for entry in info.get('files') or []}
-    read_counts = dict.fromkeys(counts, 0)
-    for name in listed:
-        _check_segment(bag / name, file_counts.get(name), read_counts, problems)
-    if read_counts != counts and not problems:
-        problems.append(f'metadata.yaml counts {counts} messages per topic, the files '
-                        f'hold {read_counts}')
-    unlisted = sorted(set(segment_files(bag)) - set(listed)) if bag.is_dir() else []
-    if unlisted:
-        problems.append(f'segment file(s) not in metadata.yaml: {", ".join(unlisted)}')
-    unfinished = unfinished_segment(bag)
-    size = unfinished.stat().st_size if unfinished is not None else 0
-    if unfinished is not None:
-        problems.append(f'an unfinished segment of {size} bytes is left in {unfinished.parent}')
-    return BagCheck(bag, not problems, int(info.get('message_count') or 0), counts, listed,
-                    unfinished, size, unlisted, problems)
-
-
-def _load_metadata(bag: Path, problems: list[str]) -> dict:
-    """Return the ``rosbag2_bagfile_information`` of ``bag``; {} and a problem if unusable."""
-    if not bag.is_dir():
-        problems.append('not a bag directory' if bag.exists() else 'does not exist')
-        return {}
-    try:
-        info = read_metadata(bag)['rosbag2_bagfile_information']
-        if not isinstance(info, dict):
-            raise TypeError('rosbag2_bagfile_information is not a mapping')
-        return info
-    except FileNotFoundError:
-        problems.append(f'{METADATA} is missing')
-    except Exception as err:  # PyYAML raises many types; a corrupt file is a finding here
-        problems.append(f'{METADATA} cannot be read: {err}')
-    return {}
-
-
-def _check_segment(file: Path, listed_count: Optional[int], read_counts: dict[str, int],
-                   problems: list[str]) -> None:
-    """Open one listed segment, add its messages per topic to ``read_counts``."""
-    try:
-        with Reader(file) as reader:
-            total = reader.message_count
-            for conn in reader.connections:
-                read_counts[conn.topic] = read_counts.get(conn.topic, 0) + conn.msgcount
-    except Exception as err:  # rosbags raises ReaderError, FileNotFoundError, ...
-        problems.append(f'{file.name} cannot be read: {err}')
-        return
-    if listed_count is not None and listed_count != total:
-        problems.append(f'{file.name} holds {total} messages, metadata.yaml says {listed_count}')
-
-
-def segment_index(name: str) -> Optional[int]:
-    """Index ``i`` of a segment file name ``<prefix>_<i>.mcap``; None for other names.
-
-    The prefix is the bag directory's name when the recorder wrote the file, whatever the
-    directory is called now (a bag renamed or copied keeps its files' names).
-    """
-    stem, dot, suffix = name.rpartition('.')
-    prefix, _, index = stem.rpartition('_')
-    if dot and suffix == 'mcap' and prefix and index.isdigit():
-        return int(index)
-    return None
-
-
-def is_mcap(file: Path) -> bool:
-    """Whether ``file`` starts with the MCAP magic: a segment, by its content, not its name."""
-    try:
-        with file.open('rb') as stream:
-            return stream.read(len(MCAP_MAGIC)) == MCAP_MAGIC
-    except OSError:
-        return False
-
-
-def segment_files(bag: Path) -> list[str]:
-    """Names of the segment files in ``bag``: its MCAP files, found by their content.
-
-    In the order of their index (``<prefix>_<i>.mcap``), then of their names; files in the
-    hidden working directories are not segments.
-    """
-    found = [(segment_index(p.name), p.name) for p in bag.iterdir()
-             if p.is_file() and not p.name.startswith('.') and is_mcap(p)]
-    return [name for _, name in sorted(found, key=lambda item: (
-        item[0] is None, -1 if item[0] is None else item[0], item[1]))]
-
-
-def unfinished_segment(bag: Path) -> Optional[Path]:
-    """Return the open segment's file left in the working directory, if any."""
-    work = bag / WORKING_DIR
-    files = sorted(work.glob('*.mcap')) if work.is_dir() else []
-    return files[0] if files else None
