@@ -20,6 +20,11 @@ BIN = Path(sys.executable).parent
 #: leaves room for a machine busy with other work, yet tells a stop that heeds its signal
 #: from one that waits out a 10 s escalation or a kill.
 PROMPT_S = 8.0
+#: Wall seconds within which processes that are starting have their nodes up and talking:
+#: imports, the facade's load and the one-facade start check (up to 30 s). Idle they take
+#: about 10 s; two CPU burners beside a full suite took the coordinator past 30 s. A safety
+#: net against a process that hangs at start, not a time the test judges.
+START_S = 120.0
 
 
 class Graph:

@@ -7,7 +7,7 @@ from builtin_interfaces.msg import Time
 from geometry_msgs.msg import Vector3Stamped
 import numpy as np
 import pytest
-from ros_graph import domain_for, Graph, on_facade_setpoints
+from ros_graph import domain_for, Graph, on_facade_setpoints, START_S
 from rosgraph_msgs.msg import Clock
 
 from flectofold_model.facade.description import build_facade
@@ -107,11 +107,12 @@ def day(small_facade, recorded_sun):
     epochs, vectors = recorded_sun
     start = epochs[0] - 2 * LEAD_S
     simulated.tick(start)
-    assert graph.spin_until(lambda: all(simulated.status.values()), 60.0), \
+    assert graph.spin_until(lambda: all(simulated.status.values()), START_S), \
         [graph.stop(p)[1] for p in (panels, coordinator)]
-    assert graph.spin_until(lambda: coordinator.poll() is None
-                            and graph.node.count_publishers(contract.FACADE_SETPOINTS.name),
-                            30.0)
+    assert graph.spin_until(lambda: coordinator.poll() is not None
+                            or graph.node.count_publishers(contract.FACADE_SETPOINTS.name),
+                            START_S), [graph.stop(p)[1] for p in (panels, coordinator)]
+    assert coordinator.poll() is None, graph.stop(coordinator)[1]
     for epoch, vector in zip(epochs, vectors):
         simulated.run(epoch - LEAD_S, 1.0)
         simulated.publish_sun(epoch, vector)
