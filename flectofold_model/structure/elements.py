@@ -7,9 +7,9 @@ nodes, and returns energies ``(m,)``, gradients ``(m, k, 3)`` or Hessians ``(m, 
 * **Membrane**: the constant-strain triangle with the St Venant-Kirchhoff law in plane stress,
   energy ``A0 (C / 2) [(1 - nu) tr(E^2) + nu tr(E)^2]`` per element, ``C = E t / (1 - nu^2)``,
   ``E`` the Green-Lagrange strain of the flat reference; exact for large rotations.
-* **Dihedral angle** of two triangles sharing an edge, signed, 0 flat, with its gradient in
-  the closed form of Bridson, Marino & Fedkiw (SCA 2003); the bending energy built on it is
-  in :mod:`.shell`.
+* **Dihedral angle** of two triangles sharing an edge, signed, 0 flat; its gradient (the
+  closed form of Bridson, Marino & Fedkiw, SCA 2003) is compiled with the bending energy
+  built on it (:mod:`.kernels`, :mod:`.shell`).
 * **Cushion prism**: the volume between a triangle of the loaded surface and the fixed plane
   ``z = z0`` below it, ``S_z (z_mean - z0)`` with ``S_z`` the triangle's area projected on the
   plane. Its gradient times the gauge pressure is the cushion's load, which therefore follows
@@ -124,23 +124,6 @@ def dihedral_angle(corners):
     sine = np.einsum('mi,mi->m', cross_rows(normal_a, normal_b), edge) / length
     cosine = np.einsum('mi,mi->m', normal_a, normal_b)
     return np.arctan2(sine, cosine)
-
-
-def dihedral_gradient(corners):
-    """Gradient of :func:`dihedral_angle` with respect to the corners ``(m, 4, 3)`` [1/m]."""
-    edge, normal_a, normal_b = _hinge_vectors(corners)
-    length_sq = np.einsum('mi,mi->m', edge, edge)
-    length = np.sqrt(length_sq)
-    wing_a = (length / np.einsum('mi,mi->m', normal_a, normal_a))[:, None] * normal_a
-    wing_b = (length / np.einsum('mi,mi->m', normal_b, normal_b))[:, None] * normal_b
-    along_a = np.einsum('mi,mi->m', corners[:, 2] - corners[:, 0], edge) / length_sq
-    along_b = np.einsum('mi,mi->m', corners[:, 3] - corners[:, 0], edge) / length_sq
-    gradient = np.empty_like(corners)
-    gradient[:, 2] = -wing_a
-    gradient[:, 3] = -wing_b
-    gradient[:, 0] = ((1.0 - along_a)[:, None] * wing_a + (1.0 - along_b)[:, None] * wing_b)
-    gradient[:, 1] = along_a[:, None] * wing_a + along_b[:, None] * wing_b
-    return gradient
 
 
 def _hinge_vectors(corners):

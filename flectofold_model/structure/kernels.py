@@ -6,7 +6,8 @@ closed-form gradient of Bridson, Marino & Fedkiw, SCA 2003; the dihedral angle's
 derivatives as central differences of that gradient with the step
 :data:`~.elements.HESSIAN_STEP_M`, symmetrised), written as loops over the faces and
 compiled, so that no ``(m, 21, 21)`` temporaries or per-hinge Python calls are made. The
-vectorised numpy forms in :mod:`.shell` stay as the reference the tests hold these to.
+tests hold them to central differences of the numpy energy (:meth:`.shell.MidEdgeBending.
+local_energy`) and of this gradient; the dihedral angle itself is :mod:`.elements`'s.
 
 A face's local unknowns are 21: its three corners, the three wings across its edges (the far
 corner of the neighbouring face; a boundary edge repeats the opposite corner), 18
@@ -98,6 +99,16 @@ def _tilts(x, interior, side, beta, d_beta, slots, gradient):
         beta[i] = 0.5 * angle + side[i] * x[18 + i]
 
 
+@inline_kernel
+def _moments(quadratic, beta, rest_sine, moment):
+    """``mu = 2 M s`` of one face, ``s = sin(beta) - sin(beta0)``, into ``moment`` (3)."""
+    for i in range(3):
+        total = 0.0
+        for j in range(3):
+            total += 2.0 * quadratic[i, j] * (math.sin(beta[j]) - rest_sine[j])
+        moment[i] = total
+
+
 @kernel
 def bending_gradient(local, interior, side, quadratic, rest_sine):
     """Gradient of the mid-edge bending energy per face ``(m, 21)`` of ``local`` ``(m, 21)``."""
@@ -105,16 +116,15 @@ def bending_gradient(local, interior, side, quadratic, rest_sine):
     out = np.zeros((count, 21))
     beta = np.empty(3)
     d_beta = np.empty((3, 21))
+    moment = np.empty(3)
     slots = np.empty(4, dtype=np.int64)
     gradient = np.empty(12)
     for f in range(count):
         x = local[f]
         _tilts(x, interior[f], side[f], beta, d_beta, slots, gradient)
+        _moments(quadratic[f], beta, rest_sine[f], moment)
         for i in range(3):
-            moment = 0.0
-            for j in range(3):
-                moment += 2.0 * quadratic[f, i, j] * (math.sin(beta[j]) - rest_sine[f, j])
-            weight = moment * math.cos(beta[i])
+            weight = moment[i] * math.cos(beta[i])
             for k in range(21):
                 out[f, k] += weight * d_beta[i, k]
     return out
@@ -147,11 +157,7 @@ def bending_hessian(local, interior, side, quadratic, rest_sine, step):
             cosine = math.cos(beta[i])
             for k in range(21):
                 d_sine[i, k] = cosine * d_beta[i, k]
-        for i in range(3):
-            total = 0.0
-            for j in range(3):
-                total += 2.0 * quadratic[f, i, j] * (math.sin(beta[j]) - rest_sine[f, j])
-            moment[i] = total
+        _moments(quadratic[f], beta, rest_sine[f], moment)
         h = out[f]
         for i in range(3):
             for j in range(3):

@@ -83,7 +83,7 @@ class MidEdgeBending:
 
     def local_energy(self, local):
         """Bending energy per face ``(m,)`` [J] of local unknowns ``(m, 21)``."""
-        beta, _, _ = self._tilts(local)
+        beta = self._tilts(local)
         sine = np.sin(beta) - self.rest_sine
         return np.einsum('mi,mij,mj->m', sine, self.quadratic, sine)
 
@@ -111,26 +111,19 @@ class MidEdgeBending:
                                        elements.HESSIAN_STEP_M).reshape(len(local), 21, 21)
 
     def _tilts(self, local):
+        """Director tilts ``beta`` ``(m, 3)`` of local unknowns ``(m, 21)``."""
         corners = local[:, :18].reshape(-1, 6, 3)
-        psi = local[:, 18:]
-        angles = np.zeros_like(psi)
-        angle_gradient = []
+        angles = np.zeros((len(local), 3))
         for i in range(3):
-            hinge = corners[:, [(i + 1) % 3, (i + 2) % 3, i, 3 + i]]
             mask = self.interior[:, i]
-            angle = np.zeros(len(local))
-            gradient = np.zeros((len(local), 4, 3))
             if np.any(mask):
-                angle[mask] = elements.dihedral_angle(hinge[mask])
-                gradient[mask] = elements.dihedral_gradient(hinge[mask])
-            angles[:, i] = angle
-            angle_gradient.append(gradient)
-        beta = 0.5 * angles + self.side * psi
-        return beta, angle_gradient, angles
+                angles[mask, i] = elements.dihedral_angle(
+                    corners[mask][:, [(i + 1) % 3, (i + 2) % 3, i, 3 + i]])
+        return 0.5 * angles + self.side * local[:, 18:]
 
     def tilt_sine(self, local):
         """Sines of the director tilts ``(m, 3)`` of local unknowns ``(m, 21)``."""
-        return np.sin(self._tilts(local)[0])
+        return np.sin(self._tilts(local))
 
     def curvature_per_m(self, local, from_rest=False):
         """Principal curvatures ``(m, 2)`` [1/m] of each face, largest magnitude first.

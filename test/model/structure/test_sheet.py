@@ -8,8 +8,8 @@ from scipy.spatial import Delaunay
 from scipy.special import ellipk
 
 from flectofold_model.kinematics import elastica
-from flectofold_model.structure import (elements, Sheet, SheetSystem, solve_prescribed,
-                                        trace_path)
+from flectofold_model.structure import (elements, kernels, Sheet, SheetSystem,
+                                        solve_prescribed, trace_path)
 from flectofold_model.structure.sheet import tangent_inertia
 from flectofold_model.structure.shell import MidEdgeBending
 
@@ -68,7 +68,12 @@ def test_the_analytic_element_gradients_match_central_differences():
     rng = np.random.default_rng(3)
     hinge = (np.array([[0, 0, 0], [1, 0, 0], [0.4, 1, 0.2], [0.6, -1, 0.3]], float)
              + rng.normal(0, 0.05, (6, 4, 3)))
-    assert np.allclose(elements.dihedral_gradient(hinge),
+    compiled = np.empty((len(hinge), 12))
+    for corners, gradient in zip(hinge, compiled):
+        local = np.concatenate([corners.ravel(), np.zeros(6)])
+        angle = kernels._dihedral(local, np.arange(4), gradient)
+        assert angle == pytest.approx(elements.dihedral_angle(corners[None])[0], abs=1e-14)
+    assert np.allclose(compiled.reshape(hinge.shape),
                        central_difference(elements.dihedral_angle, hinge), atol=1e-8)
     flat = np.array([[0, 0], [1, 0], [0, 1]], float)[None].repeat(6, 0)
     inverse, area = elements.membrane_reference(flat)
