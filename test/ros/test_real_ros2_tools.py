@@ -152,14 +152,16 @@ def test_ros2_launch_brings_a_facade_up_tracks_and_stops_on_ctrl_c(ros2_tools, t
 def panel(ros2_tools):
     """One panel node started with ``ros2 run``, on the wall clock, and a probe beside it."""
     graph = Graph(domain_for(23))
-    process = ros2_tools.start(graph, 'run', PACKAGE, 'panel_node', '--ros-args', '-r',
-                               '__ns:=/facade/r00c00')
-    latest = _states(graph)
-    assert graph.spin_until(lambda: 'r00c00' in latest, 90.0), graph.stop(process)[1]
-    yield graph, latest
-    os.killpg(process.pid, signal.SIGINT)
-    output, _ = process.communicate(timeout=30)
-    graph.close()
+    try:
+        process = ros2_tools.start(graph, 'run', PACKAGE, 'panel_node', '--ros-args', '-r',
+                                   '__ns:=/facade/r00c00')
+        latest = _states(graph)
+        assert graph.spin_until(lambda: 'r00c00' in latest, 90.0), graph.stop(process)[1]
+        yield graph, latest
+        os.killpg(process.pid, signal.SIGINT)
+        output, _ = process.communicate(timeout=30)
+    finally:
+        graph.close()
     assert process.returncode == 0 and 'Traceback' not in output, output
 
 

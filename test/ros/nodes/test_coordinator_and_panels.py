@@ -98,33 +98,35 @@ def small_facade(small_facade_text, tmp_path_factory):
 def day(small_facade, recorded_sun):
     path, facade = small_facade
     graph = Graph(domain_for(2))
-    panels = graph.start('panel_group', '--panels', ','.join(facade.panel_ids),
-                         '--facade', str(path), '--ros-args', '-p', 'use_sim_time:=true',
-                         '-p', 'setpoint_timeout_s:=60.0')
-    coordinator = graph.start('coordinator_node', '--ros-args', '-p', 'use_sim_time:=true',
-                              '-p', f'facade_file:={path}', '-p', 'setpoint_period_s:=10.0')
-    simulated = SimulatedDay(graph, facade.panel_ids)
-    epochs, vectors = recorded_sun
-    start = epochs[0] - 2 * LEAD_S
-    simulated.tick(start)
-    assert graph.spin_until(lambda: all(simulated.status.values()), START_S), \
-        [graph.stop(p)[1] for p in (panels, coordinator)]
-    assert graph.spin_until(lambda: coordinator.poll() is not None
-                            or graph.node.count_publishers(contract.FACADE_SETPOINTS.name),
-                            START_S), [graph.stop(p)[1] for p in (panels, coordinator)]
-    assert coordinator.poll() is None, graph.stop(coordinator)[1]
-    for epoch, vector in zip(epochs, vectors):
-        simulated.run(epoch - LEAD_S, 1.0)
-        simulated.publish_sun(epoch, vector)
-        graph.spin_for(0.05)
-        simulated.run(epoch, 1.0)
-    commanded = {p: values[-1] for p, values in simulated.setpoints.items()}
-    # Run the clock on until the panels have reached the last commands (or 10 min have passed).
-    simulated.run(epochs[-1] + 600.0, 1.0, wall_s=0.05, condition=lambda: all(
-        simulated.closure[p] and abs(simulated.closure[p][-1] - commanded[p]) < 0.02
-        for p in facade.panel_ids))
-    yield graph, simulated, panels, coordinator, commanded
-    graph.close()
+    try:
+        panels = graph.start('panel_group', '--panels', ','.join(facade.panel_ids),
+                             '--facade', str(path), '--ros-args', '-p', 'use_sim_time:=true',
+                             '-p', 'setpoint_timeout_s:=60.0')
+        coordinator = graph.start('coordinator_node', '--ros-args', '-p', 'use_sim_time:=true',
+                                  '-p', f'facade_file:={path}', '-p', 'setpoint_period_s:=10.0')
+        simulated = SimulatedDay(graph, facade.panel_ids)
+        epochs, vectors = recorded_sun
+        start = epochs[0] - 2 * LEAD_S
+        simulated.tick(start)
+        assert graph.spin_until(lambda: all(simulated.status.values()), START_S), \
+            [graph.stop(p)[1] for p in (panels, coordinator)]
+        assert graph.spin_until(lambda: coordinator.poll() is not None
+                                or graph.node.count_publishers(contract.FACADE_SETPOINTS.name),
+                                START_S), [graph.stop(p)[1] for p in (panels, coordinator)]
+        assert coordinator.poll() is None, graph.stop(coordinator)[1]
+        for epoch, vector in zip(epochs, vectors):
+            simulated.run(epoch - LEAD_S, 1.0)
+            simulated.publish_sun(epoch, vector)
+            graph.spin_for(0.05)
+            simulated.run(epoch, 1.0)
+        commanded = {p: values[-1] for p, values in simulated.setpoints.items()}
+        # Run the clock on until the panels have reached the last commands (or 10 min have passed).
+        simulated.run(epochs[-1] + 600.0, 1.0, wall_s=0.05, condition=lambda: all(
+            simulated.closure[p] and abs(simulated.closure[p][-1] - commanded[p]) < 0.02
+            for p in facade.panel_ids))
+        yield graph, simulated, panels, coordinator, commanded
+    finally:
+        graph.close()
 
 
 def offline_schedule(facade, epochs, vectors):

@@ -142,45 +142,47 @@ def storm(small_facade_text, tmp_path_factory):
     path.write_text(small_facade_text(CONTROL))
     facade = build_facade(path.read_text())
     graph = Graph(domain_for(37))
-    panels = graph.start('panel_group', '--panels', ','.join(facade.panel_ids),
-                         '--facade', str(path), '--ros-args', '-p', 'use_sim_time:=true',
-                         '-p', 'setpoint_timeout_s:=60.0')
-    coordinator = graph.start('coordinator_node', '--ros-args', '-p', 'use_sim_time:=true',
-                              '-p', f'facade_file:={path}',
-                              '-p', f'storm_check_period_s:={STORM_CHECK_S}')
-    day = StormDay(graph, facade.panel_ids)
-    epochs, vectors = (lambda data: (data[:, 0], data[:, 1:]))(
-        np.loadtxt(SUN_PATH, delimiter=',', skiprows=2))
-    noon = len(epochs) // 2
-    setpoint = contract.FACADE_SETPOINTS.name
-    inputs = (day.sun, day.wind, day.dni, day.override)
-    ready = lambda: (all(p.get_subscription_count() for p in inputs)  # noqa: E731
-                     and graph.node.count_publishers(setpoint) and day.states)
-    start_s = float(np.floor(epochs[noon]))
-    for attempt in range(600):  # the clock creeps on from the start until both are up
-        # A step of one state period each time: with the clock held still the panels publish
-        # one state only, lost if it goes out before this node's subscription is matched.
-        day.tick(start_s + 0.1 * attempt)
-        if graph.spin_until(ready, 0.2):
-            break
-    assert ready(), [graph.stop(p)[1] for p in (panels, coordinator)]
-    message = Vector3Stamped()
-    message.header.stamp, message.header.frame_id = stamp(day.now_s), contract.SITE_FRAME
-    message.vector.x, message.vector.y, message.vector.z = (float(c) for c in vectors[noon])
-    # A sun that reaches the coordinator before its first /clock is not decided on: send it
-    # with the clock until the first setpoints show it was (as the sun node repeats it).
-    for _ in range(50):
-        day.sun.publish(message)
-        day.tick(day.now_s)
-        if graph.spin_until(lambda: all(day.setpoints.values()), 0.2):
-            break
-    day.weather(3.0)
-    closed = day.run(day.now_s + 60.0, 1.0, lambda: day.states and np.all(
-        day.states[-1][1] > 0.95))
-    assert closed, (day.states[-1:], {p: v[-3:] for p, v in day.setpoints.items()})
-    yield day, scheduler_parameters(facade)
-    codes = [graph.stop(p) for p in (coordinator, panels)]
-    graph.close()
+    try:
+        panels = graph.start('panel_group', '--panels', ','.join(facade.panel_ids),
+                             '--facade', str(path), '--ros-args', '-p', 'use_sim_time:=true',
+                             '-p', 'setpoint_timeout_s:=60.0')
+        coordinator = graph.start('coordinator_node', '--ros-args', '-p', 'use_sim_time:=true',
+                                  '-p', f'facade_file:={path}',
+                                  '-p', f'storm_check_period_s:={STORM_CHECK_S}')
+        day = StormDay(graph, facade.panel_ids)
+        epochs, vectors = (lambda data: (data[:, 0], data[:, 1:]))(
+            np.loadtxt(SUN_PATH, delimiter=',', skiprows=2))
+        noon = len(epochs) // 2
+        setpoint = contract.FACADE_SETPOINTS.name
+        inputs = (day.sun, day.wind, day.dni, day.override)
+        ready = lambda: (all(p.get_subscription_count() for p in inputs)  # noqa: E731
+                         and graph.node.count_publishers(setpoint) and day.states)
+        start_s = float(np.floor(epochs[noon]))
+        for attempt in range(600):  # the clock creeps on from the start until both are up
+            # A step of one state period each time: with the clock held still the panels publish
+            # one state only, lost if it goes out before this node's subscription is matched.
+            day.tick(start_s + 0.1 * attempt)
+            if graph.spin_until(ready, 0.2):
+                break
+        assert ready(), [graph.stop(p)[1] for p in (panels, coordinator)]
+        message = Vector3Stamped()
+        message.header.stamp, message.header.frame_id = stamp(day.now_s), contract.SITE_FRAME
+        message.vector.x, message.vector.y, message.vector.z = (float(c) for c in vectors[noon])
+        # A sun that reaches the coordinator before its first /clock is not decided on: send it
+        # with the clock until the first setpoints show it was (as the sun node repeats it).
+        for _ in range(50):
+            day.sun.publish(message)
+            day.tick(day.now_s)
+            if graph.spin_until(lambda: all(day.setpoints.values()), 0.2):
+                break
+        day.weather(3.0)
+        closed = day.run(day.now_s + 60.0, 1.0, lambda: day.states and np.all(
+            day.states[-1][1] > 0.95))
+        assert closed, (day.states[-1:], {p: v[-3:] for p, v in day.setpoints.items()})
+        yield day, scheduler_parameters(facade)
+        codes = [graph.stop(p) for p in (coordinator, panels)]
+    finally:
+        graph.close()
     assert all(code == 0 for code, _ in codes), codes
 
 
