@@ -36,8 +36,9 @@ from flectofold_model.control.panel_loops import LoopSample, panel_indices
 from flectofold_model.facade import DEFAULT_FACADE, load_facade
 from flectofold_model.kinematics.kinds import panel_kind
 from flectofold_ros.runtime import diagnostics
-from flectofold_ros.runtime.domain_watch import (Presence, report_domain, senders,
-                                                 service_clients, SourceGuard, StartCheck)
+from flectofold_ros.runtime.domain_watch import (log_with_senders, log_with_service_clients,
+                                                 Presence, report_domain, SourceGuard,
+                                                 StartCheck)
 from flectofold_ros.runtime.interfaces import publisher, service, subscription
 from flectofold_ros.runtime.parameters import choice, declare_all, double, integer, string
 from flectofold_ros.runtime.runner import Program, run_nodes
@@ -317,9 +318,9 @@ class PanelProcess:
             return
         if indices.size:  # else the panels are another process's
             self.fault_requests_applied += 1
-            self.settings.get_logger().warning(
-                f'fault request: {request.describe()} ({indices.size} panel(s) here), from '
-                f'{senders(self.settings, contract.INJECT_FAULT.name)}')
+            log_with_senders(self.settings, contract.INJECT_FAULT.name,
+                             f'fault request: {request.describe()} ({indices.size} panel(s) '
+                             f'here),')
 
     def _end_timed_faults(self, now_s):
         for panel_id, kind in self.injector.expire(now_s) if self.injector else ():
@@ -372,9 +373,8 @@ class PanelProcess:
         fault = self.loops.controller.fault_at(index)
         self.loops.reset_faults([index])
         panel = self.panels[index]
-        panel.get_logger().warning(
-            f'reset_faults ({fault.value}) from '
-            f'{service_clients(self.settings, contract.reset_faults_service(panel.panel_id))}')
+        log_with_service_clients(panel, contract.reset_faults_service(panel.panel_id),
+                                 f'reset_faults ({fault.value})')
         return f'cleared {fault.value}' if fault is not Fault.NONE else 'no fault'
 
     # -- the tick ---------------------------------------------------------------------------

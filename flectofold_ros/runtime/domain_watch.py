@@ -267,23 +267,64 @@ def report_domain(watch, sources, level, message, figures):
     return level, message
 
 
-def senders(node, topic):
-    """Name the publishers a message on ``topic`` can have come from (one line)."""
-    return _endpoint_names(node.get_publishers_info_by_topic(topic))
+#: Wall seconds a log line waits, at most, for the graph to name a sender it has seen as an
+#: endpoint only: DDS discovery gives a writer's endpoint before the ROS graph information that
+#: names its node, and a request can come between the two.
+NAMING_S = 30.0
+#: Wall seconds between two looks at the graph while a sender is unnamed.
+NAMING_PERIOD_S = 0.1
+#: What rmw reports for a node it knows an endpoint of but not yet its name.
+_UNKNOWN_NAME = '_NODE_NAME_UNKNOWN_'
 
 
-def service_clients(node, service_name):
-    """Name the clients a request to ``service_name`` can have come from (one line).
+def log_with_senders(node, topic, line, no_mangle=False):
+    """Log ``line`` (a warning) followed by `` from`` and the publishers on ``topic``.
+
+    When the graph knows every such publisher's endpoint but not yet its node's name (the
+    sender was discovered a moment ago), the line is logged at once with the sender left
+    open, and logged again with the name once the graph has it, within :data:`NAMING_S`
+    (else a line says it stayed unnamed). ``no_mangle`` passes a raw DDS topic name.
+    """
+    names = _names(node.get_publishers_info_by_topic(topic, no_mangle=no_mangle))
+    if not any(_UNKNOWN_NAME in name for name in names):
+        node.get_logger().warning(f'{line} from {_one_line(names)}')
+        return
+    node.get_logger().warning(f'{line} from a sender the graph has not named yet (named in '
+                              f'a following line once discovery gives its name)')
+    since_s = time.monotonic()
+    timer = None
+
+    def look():
+        known = _names(node.get_publishers_info_by_topic(topic, no_mangle=no_mangle))
+        waited_s = time.monotonic() - since_s
+        if not any(_UNKNOWN_NAME in name for name in known):
+            node.get_logger().warning(
+                f'{line} from {_one_line(known)} (named {waited_s:.1f} s later)')
+        elif waited_s > NAMING_S:
+            node.get_logger().warning(
+                f'{line}: its sender still unnamed after {NAMING_S:.0f} s ({_one_line(known)})')
+        else:
+            return
+        node.destroy_timer(timer)
+
+    timer = node.create_timer(NAMING_PERIOD_S, look,
+                              clock=Clock(clock_type=ClockType.STEADY_TIME))
+
+
+def log_with_service_clients(node, service_name, line):
+    """Log ``line`` followed by `` from`` and the clients of ``service_name``.
 
     A service's request is a message on ``rq/<name>Request``; rclpy gives a service callback
-    no sender, so this names every client on it.
+    no sender, so this names every client on it, as :func:`log_with_senders` does.
     """
-    return _endpoint_names(node.get_publishers_info_by_topic(
-        f'rq{service_name}Request', no_mangle=True))
+    log_with_senders(node, f'rq{service_name}Request', line, no_mangle=True)
 
 
-def _endpoint_names(infos):
-    names = sorted({_full_name(info) for info in infos})
+def _names(infos):
+    return sorted({_full_name(info) for info in infos})
+
+
+def _one_line(names):
     if not names:
         return 'a sender gone from the graph'
     if len(names) == 1:

@@ -154,4 +154,5 @@ def test_setpoints_beside_the_coordinators_are_refused_and_senders_of_resets_are
         assert 'policy hold' in line
     assert 'fault request: supply_loss on r01c01' in text and 'from /stranger' in text, text
     assert 'reset_faults (' in text and ') from /stranger' in text, text
+    assert '_NODE_NAME_UNKNOWN_' not in text, text  # a sender seen early is named later
     assert bringup.returncode == 0, text  # the panels held safe; the day went on
