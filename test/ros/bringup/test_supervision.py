@@ -12,7 +12,7 @@ import time
 from bringup_day import (begin_day, end_day, panel_processes_of, start_day,
                          supervised_facade_file)
 import pytest
-from ros_graph import domain_for, Graph, PROMPT_S
+from ros_graph import domain_for, Graph, PROMPT_S, START_S
 
 from flectofold_ros.bringup.cli import HUNG_S
 from flectofold_ros.runtime.interfaces import subscription
@@ -40,7 +40,7 @@ def test_a_killed_panel_process_is_restarted_and_its_panels_track_again(small_fa
         died = output.wait_for(graph, 'died: killed by SIGKILL', 30)
         assert died and f'(pid {victim})' in died, output.text
         assert time.monotonic() - signal_sent < PROMPT_S  # noticed at once, not at a timeout
-        assert output.wait_for(graph, 'restarted (pid', 30), output.text
+        assert output.wait_for(graph, 'restarted (pid', START_S), output.text
         assert output.wait_for(graph, 'panels reporting 2/4', 30), output.text
         end_day(graph, bringup, output, 60)
     finally:
@@ -90,7 +90,7 @@ def test_a_killed_recorder_is_restarted_into_a_new_bag_and_the_summary_says_so(
         listing = subprocess.run(['pgrep', '-P', str(bringup.pid), '-f', 'bag_recorder'],
                                  capture_output=True, text=True).stdout.split()
         subprocess.run(['kill', '-KILL', listing[0]], check=True)
-        assert output.wait_for(graph, 'bag_recorder (pid', 30), output.text
+        assert output.wait_for(graph, 'bag_recorder (pid', START_S), output.text
         end_day(graph, bringup, output, 120)
     finally:
         graph.close()
@@ -114,7 +114,7 @@ def test_a_hung_panel_process_is_killed_and_restarted(small_facade_file):
         hung = output.wait_for(graph, 'hung (silent for 15 s), killed', 60)
         assert hung and f'(pid {victim})' in hung, output.text
         assert time.monotonic() - stopped >= HUNG_S - 2.0  # its last report came up to 1 s before
-        assert output.wait_for(graph, 'restarted (pid', 30), output.text
+        assert output.wait_for(graph, 'restarted (pid', START_S), output.text
         end_day(graph, bringup, output, 60)
     finally:
         graph.close()
@@ -136,7 +136,7 @@ def test_a_panel_process_that_hangs_before_its_first_report_is_killed_and_restar
         assert output.wait_for(graph, 'starting the day anyway', 120), output.text
         hung = output.wait_for(graph, 'hung (no report 60 s after its start), killed', 60)
         assert hung and f'(pid {victim})' in hung, output.text
-        assert output.wait_for(graph, 'restarted (pid', 30), output.text
+        assert output.wait_for(graph, 'restarted (pid', START_S), output.text
         end_day(graph, bringup, output, 60)
     finally:
         graph.close()
