@@ -2,7 +2,7 @@
 
 - :mod:`.pressure_loop`: closure setpoint -> valve openings, with fault detection
   (:class:`PressureController`);
-- :mod:`.setpoint_guard`: setpoint validation and the watchdog (:class:`SetpointGuard`);
+- :mod:`.setpoint_guard`: setpoint validation and the watchdog (:class:`SetpointGuards`);
 - :mod:`.hardware`: the valve/sensor interface the loop drives (:class:`CushionDriver`) and its
   simulation;
 - :mod:`.regulator`: pressure setpoints for channels that a proportional pressure regulator
@@ -22,11 +22,13 @@ from flectofold_model.control.panel_loops import (compile_kernels, facade_loops,
 from flectofold_model.control.pressure_loop import (ControllerParameters, Fault,
                                                     PressureController, SafeAction, ValveCommand)
 from flectofold_model.control.regulator import RegulatorSetpoints
-from flectofold_model.control.setpoint_guard import SafeBehaviour, SetpointGuard, SetpointState
+from flectofold_model.control.setpoint_guard import (
+    SafeBehaviour, SetpointGuard, SetpointGuards, SetpointState)
 
 __all__ = [
     'ControllerParameters', 'CushionDriver', 'Fault', 'LoopAdvance', 'LoopTrace', 'PanelLoops',
     'PressureController', 'PublishDecimator', 'RegulatorSetpoints', 'SafeAction', 'SafeBehaviour',
-    'SetpointGuard', 'SetpointState', 'SimulatedCushions', 'StepMetrics', 'ValveCommand',
+    'SetpointGuard', 'SetpointGuards', 'SetpointState', 'SimulatedCushions', 'StepMetrics',
+    'ValveCommand',
     'compile_kernels', 'facade_loops', 'panel_indices', 'simulate', 'step_metrics',
 ]

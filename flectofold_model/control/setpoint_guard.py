@@ -1,13 +1,16 @@
-"""Validation and watchdog of one panel's closure setpoint.
+"""Validation and watchdog of the panels' closure setpoints.
 
-A :class:`SetpointGuard` accepts only finite closures in [0, 1]; anything else is refused with
-a reason and the last valid setpoint holds. When no valid setpoint arrived for ``timeout_s``
+:class:`SetpointGuards` (a process's panels, as arrays) and :class:`SetpointGuard` (one panel)
+accept only finite closures in [0, 1]; anything else is refused with a reason and the last
+valid setpoint holds. When no valid setpoint arrived for ``timeout_s``
 (the commander died, the network split) the guard switches to the configured
 :class:`SafeBehaviour` until a fresh setpoint arrives.
 """
 
 import enum
-from numbers import Real
+from numbers import Integral, Real
+
+import numpy as np
 
 from flectofold_model._validate import real_scalar
 
@@ -30,11 +33,16 @@ class SetpointState(enum.Enum):
     TIMED_OUT = 'setpoint_timeout'
 
 
-class SetpointGuard:
-    """Closure setpoints in, the closure to track out.
+class SetpointGuards:
+    """Closure setpoints in, the closures to track out, for ``count`` panels at once.
+
+    Each panel's setpoint is validated, held and watched on its own; the watchdog's time and
+    the safe behaviour are the process's, shared by all.
 
     Parameters
     ----------
+    count : int
+        Panels, ``>= 1``.
     timeout_s : float
         Time without a valid setpoint after which the safe behaviour starts [s], ``> 0``.
     safe_behaviour : SafeBehaviour
@@ -43,16 +51,25 @@ class SetpointGuard:
         starts vented).
     """
 
-    def __init__(self, timeout_s, safe_behaviour=SafeBehaviour.VENT, initial_closure=0.0):
+    #: The states, in the order of the codes :meth:`states` returns.
+    STATES = (SetpointState.WAITING, SetpointState.TRACKING, SetpointState.TIMED_OUT)
+
+    def __init__(self, count, timeout_s, safe_behaviour=SafeBehaviour.VENT,
+                 initial_closure=0.0):
+        if isinstance(count, bool) or not isinstance(count, Integral) or count < 1:
+            raise ValueError(f'count must be a whole number >= 1, got {count!r}')
         self.timeout_s = timeout_s
         self.safe_behaviour = safe_behaviour
-        self._initial = _closure_or_raise('initial_closure', initial_closure)
-        self._last_valid = self._initial
-        self._last_valid_s = None
+        self.last_valid = np.full(count, _closure_or_raise('initial_closure', initial_closure))
+        """The last accepted setpoint of each panel (or the initial closure) [closure]."""
+        self._last_valid_s = np.full(count, np.nan)
         self._started_s = None
-        self.received = False
-        self.rejected = 0
-        self.last_rejection = ''
+        self.received = np.zeros(count, dtype=bool)
+        """Whether each panel has had a valid setpoint."""
+        self.rejected = np.zeros(count, dtype=np.int64)
+        """Setpoints refused, per panel."""
+        self.last_rejection = [''] * count
+        """Why each panel's last refused setpoint was refused."""
 
     @property
     def timeout_s(self):
@@ -75,41 +92,112 @@ class SetpointGuard:
     def safe_behaviour(self, value):
         self._safe_behaviour = SafeBehaviour(value)
 
+    def offer(self, index, value, now_s):
+        """Take panel ``index``'s setpoint received at ``now_s`` [s].
+
+        Return ``None``, or why it was refused (then the last valid one holds).
+        """
+        reason = _closure_problem(value)
+        if reason is not None:
+            self.rejected[index] += 1
+            self.last_rejection[index] = reason
+            return reason
+        now_s = real_scalar('now_s', now_s)
+        self.last_valid[index] = float(value)
+        self._last_valid_s[index] = now_s
+        self.received[index] = True
+        return None
+
+    def states(self, now_s):
+        """Return each panel's state at ``now_s`` [s], as indices into :attr:`STATES`.
+
+        The watchdog runs from the last valid setpoint, or from the first reading of the
+        clock; a clock that goes back (a bag that loops) restarts it.
+        """
+        now_s = real_scalar('now_s', now_s)
+        if self._started_s is None or now_s < self._started_s:
+            self._started_s = now_s
+        np.minimum(self._last_valid_s, now_s, out=self._last_valid_s)  # NaN (none yet) stays
+        since_s = np.where(np.isnan(self._last_valid_s), self._started_s, self._last_valid_s)
+        return np.where(now_s - since_s > self._timeout_s, _TIMED_OUT,
+                        np.where(self.received, _TRACKING, _WAITING))
+
+    def command(self, now_s):
+        """Return the closures to track at ``now_s`` [s] and the states (:meth:`states`)."""
+        states = self.states(now_s)
+        if self._safe_behaviour is SafeBehaviour.VENT:
+            return np.where(states == _TIMED_OUT, 0.0, self.last_valid), states
+        return self.last_valid.copy(), states
+
+
+_WAITING, _TRACKING, _TIMED_OUT = range(3)
+
+
+class SetpointGuard:
+    """One panel's :class:`SetpointGuards`, with scalars in and out.
+
+    Parameters
+    ----------
+    timeout_s : float
+        Time without a valid setpoint after which the safe behaviour starts [s], ``> 0``.
+    safe_behaviour : SafeBehaviour
+    initial_closure : float
+        Closure tracked until the first valid setpoint, in [0, 1].
+    """
+
+    def __init__(self, timeout_s, safe_behaviour=SafeBehaviour.VENT, initial_closure=0.0):
+        self.guards = SetpointGuards(1, timeout_s, safe_behaviour, initial_closure)
+
+    @property
+    def timeout_s(self):
+        """Watchdog time [s]."""
+        return self.guards.timeout_s
+
+    @timeout_s.setter
+    def timeout_s(self, value):
+        self.guards.timeout_s = value
+
+    @property
+    def safe_behaviour(self):
+        """The :class:`SafeBehaviour` after a timeout."""
+        return self.guards.safe_behaviour
+
+    @safe_behaviour.setter
+    def safe_behaviour(self, value):
+        self.guards.safe_behaviour = value
+
     @property
     def last_valid(self):
         """The last accepted setpoint (or the initial closure) [closure]."""
-        return self._last_valid
+        return float(self.guards.last_valid[0])
+
+    @property
+    def received(self):
+        """Whether a valid setpoint came."""
+        return bool(self.guards.received[0])
+
+    @property
+    def rejected(self):
+        """Setpoints refused."""
+        return int(self.guards.rejected[0])
+
+    @property
+    def last_rejection(self):
+        """Why the last refused setpoint was refused."""
+        return self.guards.last_rejection[0]
 
     def offer(self, value, now_s):
         """Take a setpoint received at ``now_s`` [s]; return ``None``, or why it was refused."""
-        reason = _closure_problem(value)
-        if reason is not None:
-            self.rejected += 1
-            self.last_rejection = reason
-            return reason
-        self._last_valid = float(value)
-        self._last_valid_s = real_scalar('now_s', now_s)
-        self.received = True
-        return None
+        return self.guards.offer(0, value, now_s)
 
     def state(self, now_s):
         """Return the :class:`SetpointState` at ``now_s`` [s]."""
-        now_s = real_scalar('now_s', now_s)
-        if self._started_s is None or now_s < self._started_s:
-            self._started_s = now_s  # the first reading, or a clock that went back (a bag loop)
-        if self._last_valid_s is not None and now_s < self._last_valid_s:
-            self._last_valid_s = now_s
-        since = self._started_s if self._last_valid_s is None else self._last_valid_s
-        if now_s - since > self._timeout_s:
-            return SetpointState.TIMED_OUT
-        return SetpointState.TRACKING if self.received else SetpointState.WAITING
+        return SetpointGuards.STATES[self.guards.states(now_s)[0]]
 
     def command(self, now_s):
         """Return the closure to track at ``now_s`` [s] and the :class:`SetpointState`."""
-        state = self.state(now_s)
-        if state is SetpointState.TIMED_OUT and self._safe_behaviour is SafeBehaviour.VENT:
-            return 0.0, state
-        return self._last_valid, state
+        closures, states = self.guards.command(now_s)
+        return float(closures[0]), SetpointGuards.STATES[states[0]]
 
 
 def _closure_problem(value):

@@ -29,9 +29,10 @@ from flectofold_ros.bringup.monitor import Monitor
 from flectofold_ros.bringup.plan import local_time, MAX_LAG_S, plan_day
 from flectofold_ros.bringup.supervision import hangs, RestartPolicy, Supervisor
 from flectofold_ros.commands.structure_cache import prepare_structural_map
+from flectofold_ros.hardware.drivers import MAX_CALL_S
 from flectofold_ros.nodes.coordinator import CoordinatorNode
-from flectofold_ros.nodes.panel import MAX_CALL_S, start_panels
 from flectofold_ros.nodes.panel_group import group_slice
+from flectofold_ros.nodes.panel_node import start_panels
 from flectofold_ros.nodes.sun_position import SunPositionNode
 from flectofold_ros.nodes.weather import WEATHER_SITE_TOLERANCE_DEG, WeatherNode
 from flectofold_ros.recording import check_bag

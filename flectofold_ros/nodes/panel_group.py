@@ -14,7 +14,7 @@ from rclpy.parameter import Parameter
 from rclpy.utilities import remove_ros_args
 
 from flectofold_model.facade import DEFAULT_FACADE, load_facade
-from flectofold_ros.nodes.panel import run_panels
+from flectofold_ros.nodes.panel_node import run_panels
 from flectofold_ros.wire import contract
 
 #: A ROS node name: a letter or underscore, then letters, digits or underscores.

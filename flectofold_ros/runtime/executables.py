@@ -24,7 +24,7 @@ EXECUTABLES = {
     'day_report': ('flectofold_ros.commands.day_report', 130),
     'annual_report': ('flectofold_ros.commands.annual_report', 130),
     'building_report': ('flectofold_ros.commands.building_report', 130),
-    'panel_node': ('flectofold_ros.nodes.panel', 0),
+    'panel_node': ('flectofold_ros.nodes.panel_node', 0),
     'panel_group': ('flectofold_ros.nodes.panel_group', 0),
     'sun_position_node': ('flectofold_ros.nodes.sun_position', 0),
     'weather_node': ('flectofold_ros.nodes.weather', 0),

@@ -5,7 +5,8 @@ import math
 import numpy as np
 import pytest
 
-from flectofold_model.control.setpoint_guard import SafeBehaviour, SetpointGuard, SetpointState
+from flectofold_model.control.setpoint_guard import (
+    SafeBehaviour, SetpointGuard, SetpointGuards, SetpointState)
 
 
 @pytest.mark.parametrize('value, reason', [
@@ -79,3 +80,46 @@ def test_a_clock_that_goes_back_restarts_the_watchdog():
 def test_bad_configuration_is_refused(options, message):
     with pytest.raises(ValueError, match=message):
         SetpointGuard(**options)
+
+
+def test_each_panel_of_a_process_is_guarded_on_its_own():
+    guards = SetpointGuards(3, timeout_s=5.0)
+    assert guards.offer(1, 0.7, now_s=10.0) is None
+    assert 'NaN' in guards.offer(2, math.nan, now_s=10.0)
+    closures, states = guards.command(12.0)
+    assert closures.tolist() == [0.0, 0.7, 0.0]
+    assert [SetpointGuards.STATES[s] for s in states] == [
+        SetpointState.WAITING, SetpointState.TRACKING, SetpointState.WAITING]
+    assert guards.rejected.tolist() == [0, 0, 1] and 'NaN' in guards.last_rejection[2]
+    # the watchdog runs from the last valid setpoint, or from the first reading of the clock
+    guards.offer(0, 0.2, now_s=14.0)
+    closures, states = guards.command(15.0)  # at 1's bound (10 s + 5 s): not yet timed out
+    assert closures.tolist() == [0.2, 0.7, 0.0]
+    assert states.tolist() == [1, 1, 0]
+    closures, states = guards.command(15.001)  # just beyond it: 1 vents
+    assert closures.tolist() == [0.2, 0.0, 0.0]
+    assert [SetpointGuards.STATES[s] for s in states] == [
+        SetpointState.TRACKING, SetpointState.TIMED_OUT, SetpointState.WAITING]
+    assert guards.command(17.0)[1].tolist() == [1, 2, 0]  # 2: at its bound (12 s + 5 s)
+    assert guards.command(17.001)[1].tolist() == [1, 2, 2]
+
+
+def test_hold_keeps_each_panels_last_setpoint_after_the_timeout():
+    guards = SetpointGuards(2, timeout_s=1.0, safe_behaviour=SafeBehaviour.HOLD,
+                            initial_closure=0.1)
+    guards.offer(0, 0.9, 0.0)
+    guards.command(0.0)
+    closures, states = guards.command(5.0)
+    assert closures.tolist() == [0.9, 0.1] and states.tolist() == [2, 2]
+    closures[0] = 0.5  # the caller's copy, not the guard's
+    assert guards.command(5.0)[0].tolist() == [0.9, 0.1]
+
+
+@pytest.mark.parametrize('count', [0, -1, 1.5, True, '2'])
+def test_a_count_that_is_no_whole_positive_number_is_refused(count):
+    with pytest.raises(ValueError, match='count'):
+        SetpointGuards(count, timeout_s=1.0)
+
+
+def test_one_guard_is_a_count_of_one():
+    assert SetpointGuards(1, timeout_s=1.0).command(0.0)[0].tolist() == [0.0]

@@ -8,7 +8,7 @@ first tick came late publishes its states at 0 and 200 ms intervals (``msg_docs/
 import numpy as np
 import pytest
 
-from flectofold_ros.nodes.panel import loop_start_s
+from flectofold_model.control.decimation import loop_start_s
 
 PERIOD_S = 0.1
 

@@ -190,11 +190,11 @@ def test_a_panel_needs_a_known_id(arguments, message):
 def test_a_refused_runtime_change_leaves_every_parameter_as_it_was():
     from rclpy.parameter import Parameter
 
-    from flectofold_ros.nodes.panel import start_panels
+    from flectofold_ros.nodes.panel_node import start_panels
     graph = Graph(domain_for(4))
     try:
         program = start_panels([PANEL], context=graph.context)
-        node, guard = program.nodes[0], program.process.guards[0]
+        node, guard = program.nodes[0], program.process.guards
         results = node.set_parameters_atomically([Parameter('setpoint_timeout_s', value=5.0),
                                                   Parameter('safe_behaviour', value='explode')])
         assert not results.successful and 'explode' in results.reason
@@ -259,7 +259,7 @@ def test_a_cushion_driver_that_does_not_exist_is_refused_at_start(executable, ar
 def test_the_cushion_driver_cannot_be_changed_at_run_time(group_name):
     from rclpy.parameter import Parameter
 
-    from flectofold_ros.nodes.panel import start_panels
+    from flectofold_ros.nodes.panel_node import start_panels
     graph = Graph(domain_for(19))
     try:
         program = start_panels([PANEL], group_name, context=graph.context)
