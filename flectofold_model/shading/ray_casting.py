@@ -1,74 +1,53 @@
 """Direct-sun shading and view of folded panels, by ray casting against their meshes.
 
-Geometry, in the panel frame of :mod:`~flectofold_model.kinematics` (x along the mid-rib, y across,
-z out of the facade, metres). The flat panel is the cell ``|x| <= L/2, |y| <= W/2`` of the
-facade plane ``z = 0``, and the panels tessellate the facade. Behind each panel, at
-``z = -standoff_m``, lies its **footprint**: the same rectangle on the window or wall. The sun
-vector ``s`` is the unit vector toward the sun in the panel frame; direct sun reaches the
-footprint only if ``s_z > 0`` (the panel is *sunlit*; a sun within ``1e-9`` rad of the facade
-plane, :data:`SUNLIT_MIN_SZ`, counts as parallel to it).
+Geometry, in the panel frame of :mod:`~flectofold_model.kinematics` (x along the mid-rib,
+y across, z out of the facade) [m]: the flat panel is the cell ``|x| <= L/2, |y| <= W/2``
+of the facade plane ``z = 0``, and its **footprint** is the same rectangle on the window or
+wall behind it, at ``z = -standoff_m``. ``s`` is the unit vector toward the sun [-]; the
+panel is *sunlit*, and direct sun reaches the footprint, if ``s_z > SUNLIT_MIN_SZ`` (1e-9).
 
-A footprint point is **blocked** when its ray toward the sun, ``p + t s`` with ``t > 0``,
-hits a folded sheet: mid-rib or flap. The **blocked fraction** is the blocked share of the
-footprint's area; with ``s_z > 0`` every footprint point receives direct sun unless blocked,
-so it is also the share of the direct sun on the footprint that the panels intercept. It is
-measured along ``3 samples`` parallel **scan lines** across the footprint
-(:mod:`.scan_lines`), the midlines of equal strips, tilted away from the x and y axes: on
-each line, the rays from every point of it are tested at once against each triangle of the
-mesh by the Moller-Trumbore algorithm. With ``s`` fixed per panel, Moller-Trumbore's
-barycentric coordinates are affine in the ray origin, ``u = (o - v0) . (s x e2) / det`` and
-``v = (o - v0) . (e1 x s) / det`` (factors computed once per triangle, in float64), so along
-a line they are affine in its parameter and the points whose ray hits the triangle,
-``u, v, 1 - u - v >= -1e-4``, form one interval, found from the three coordinates' zeros
-(in float32: to about 1e-7 of the footprint). The slack closes shared edges against
-rounding; the check ``t > 0`` is not needed because every mesh point lies at ``z >= 0``, in
-front of the rays' origins. The union of a line's intervals is measured exactly (on a grid
-of ``2**-30`` of its parameter, so no result depends on how panels are batched), and the
-blocked fraction is the lines' blocked length over their chords' length. Triangles seen
-edge-on (``|det|`` below ``1e-12 |e1| |e2|``) cast no shadow, triangles whose shadow's
-bounding box misses the footprint are left out, and each triangle is tested on the lines
-its shadow spans only.
+A footprint point ``p`` is **blocked** if its ray ``p + t s``, ``t > 0``, hits a folded
+sheet (mid-rib or flap). The **blocked fraction** [-] is the blocked share of the
+footprint's area, which on a sunlit panel is the share of its direct sun that the sheets
+intercept. It is measured along ``3 samples`` parallel scan lines (:mod:`.scan_lines`), the
+midlines of equal strips, tilted away from the directions of straight shadow edges. For a
+triangle ``v0, v0 + e1, v0 + e2`` with ``det = e1 . (s x e2)``, the barycentric coordinates
+of the ray from ``o`` by the Moller-Trumbore algorithm [1]_,
+``u = (o - v0) . (s x e2) / det``, ``v = (o - v0) . (e1 x s) / det`` and ``w = 1 - u - v``,
+are affine in ``o``; along a scan line the ray hits the triangle on one interval, where
+``u, v, w >= -1e-4`` (the slack closes shared edges). Then::
 
-The error is that of the midpoint rule across the lines: where a shadow's outline crosses
-them it costs nothing, only where an edge runs (nearly) along them, up to half a strip's
-share per such edge. Straight shadow edges along x and y, which every sun leaves parallel to
-the sheets' edges along and across the mid-rib, cross the tilted lines; on a grid of points
-they would run along its rows and cost up to a row's share each (1/24; 0.036 over the cases
-of bench/bench_shading_accuracy.py with 24 x 24 points, 0.0031 with 72 lines).
+    blocked_fraction = sum of the lines' blocked lengths / sum of their chord lengths,
 
-**Neighbours.** With ``standoff_m > 0`` an oblique ray from the footprint leaves the panel's
-own cell before it reaches the sheet: it passes the facade through a neighbour's cell. By
-default (``tessellated=True``) every panel is taken to sit in an unbounded rectangular array
-of ``L x W`` cells of identical panels in its own fold state, and rays are tested against the
-copies of its mesh in all the cells they cross while inside the meshes' height range. Then a
-flat panel blocks all direct sun at any ``s_z > 0``, as a closed facade plane does, and
-standing flaps block grazing sun like fins. ``tessellated=False`` tests the panel's own mesh
-only: a lone panel, whose footprint takes oblique sun past its edges.
+with a line's blocked length the exact length of the union of its intervals. Triangles seen
+edge-on (``|det| <= 1e-12 |e1| |e2|``) cast no shadow; ``t > 0`` needs no check, since every
+mesh point lies at ``z >= 0``. The error is the midpoint rule's across the lines: none where
+a shadow's outline crosses them, up to half a strip's share per edge that runs along them.
 
-A ray is followed across at most ``max_cells`` cells (counted along x plus along y) of the
-meshes' height range. Only a sun within about a degree of the facade plane needs more (the
-closed demonstrator module's flaps, 0.5 m tall, on 1 m cells: 32 cells at 0.9 deg), and
-blocked fractions are lower bounds there.
+**Neighbours.** With ``tessellated=True`` each panel sits in an unbounded array of identical
+panels in its own fold state (``L x W`` cells, or the hexagonal lattice of
+:mod:`.hexagon_tiling`), and each ray is tested against the copies of the mesh in every cell
+it crosses within the meshes' height range, up to ``max_cells`` cells (along x plus along y;
+across-flats widths for hexagons), beyond which blocked fractions are lower bounds. A flat
+tessellated facade blocks all direct sun at any ``s_z > 0``. ``tessellated=False`` tests the
+panel's own mesh only: a lone panel, whose footprint takes oblique sun past its edges.
 
-Resolution and cost: the default :data:`SHADING_TOPOLOGY` (280 triangles) resolves the sheet
-to about ``L / 10`` along the mid-rib, and ``samples = 24`` (72 lines) keeps the blocked
-fraction within 0.004 of the exact shadow area of that mesh (0.0002 on average) over the
-closures 0 ... 1 and suns 0 ... 80 deg off the normal of msg_docs/scheduling.md. The work per
-panel is the lines times the triangles near the footprint in each cell crossed, each on the
-few lines its shadow spans: one cell at normal incidence, a few in oblique sun. Panels are
-meshed 256 at a time and the intervals made a block of pairs at a time, so memory stays
-bounded.
+**Hexagonal panels.** Every public function takes a batch (or fold model) of either kind.
+For a hexagonal panel the shape parameter is the centre rise [m], the footprint is the
+hexagon itself and the scan lines cross it at 15 deg to its sides, so fractions are shares
+of the hexagon's area.
 
-**Hexagonal panels.** Every public function takes a batch (or fold model) of either kind;
-the shape parameter is then the centre rise [m] and the footprint is the hexagon itself, behind
-the sheet (:mod:`.hexagon_tiling`), and the scan lines cross it at 15 deg to its edges'
-directions, so the fractions are shares of the hexagon's area. Neighbours are copies on the
-hexagonal lattice of the panel's size; a copy is tested where it lies within the footprint's
-radius plus the mesh's of a ray's run, and a ray's run is cut to ``max_cells`` across-flats
-widths. Triangles are culled by
-their shadow's extent across the hexagon's three pairs of sides. The default
-:data:`HEXAGON_SHADING_TOPOLOGY` (144 triangles) is within 0.003 (mean; 0.02 at most) of a
-mesh of 13,206 triangles (msg_docs/hexagon_shading.md).
+Results do not depend on how panels are batched (intervals are merged on a grid of
+``2**-30`` of the line parameter). Accuracy, CPU cost and the choice of the defaults
+(:data:`SHADING_TOPOLOGY`, :data:`HEXAGON_SHADING_TOPOLOGY`, :data:`DEFAULT_SAMPLES`,
+:data:`DEFAULT_MAX_CELLS`): msg_docs/scheduling.md, sections "Ray runs, resolution and
+cost" and "Accuracy of the blocked fraction"; msg_docs/hexagon_shading.md, sections
+"Mesh topology: convergence" and "CPU cost".
+
+References
+----------
+.. [1] Moller, T. and Trumbore, B., "Fast, minimum storage ray-triangle intersection",
+   Journal of Graphics Tools 2(1) (1997) 21-28.
 """
 
 from dataclasses import dataclass
@@ -325,10 +304,27 @@ def closure_for_shading(fold_model, sun_panel, target_blocked, closures=DEFAULT_
 def choose_candidate(closures, blocked, views, sunlit, target):
     """Index (N,) of the candidate each panel takes by the rule of :func:`closure_for_shading`.
 
-    ``closures`` (C,) are the candidates; ``blocked`` and ``views`` (N, C) their blocked and
-    view fractions (for a look-ahead window, pass each candidate's worst blocked fraction over
-    the window); ``sunlit`` (N,) and ``target`` (N,) or scalar. Shared by every caller so the
-    rule lives in one place.
+    Shared by every caller, so the rule lives in one place. A candidate counts as meeting
+    the target if its blocked fraction is at least ``target - 1e-9``.
+
+    Parameters
+    ----------
+    closures : array-like
+        The C candidate closures, shape ``(C,)`` [-] (0 open ... 1 closed).
+    blocked : numpy.ndarray
+        Blocked fraction of each panel at each candidate, shape ``(N, C)`` [-]; for a
+        look-ahead window, each candidate's worst blocked fraction over the window.
+    views : numpy.ndarray
+        View fraction of each panel at each candidate, shape ``(N, C)`` [-].
+    sunlit : numpy.ndarray
+        ``True`` where the panel gets direct sun, shape ``(N,)``.
+    target : float or numpy.ndarray
+        Wanted blocked fraction, a scalar or shape ``(N,)`` [-]; ignored where not sunlit.
+
+    Returns
+    -------
+    numpy.ndarray
+        Index into ``closures`` of each panel's choice, shape ``(N,)``.
     """
     count, size = blocked.shape
     wanted = np.where(sunlit, target, 0.0)[:, None]

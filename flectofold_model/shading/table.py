@@ -1,10 +1,11 @@
 """Precomputed shading of one panel type, for choosing closures every control period.
 
-Ray casting (:mod:`.ray_casting`) costs about half a millisecond per panel and sun;
-a coordinator of thousands of panels cannot spend that for every candidate closure every
-period. A :class:`ShadingTable` casts once, for one panel geometry, over a grid of sun
-directions and candidate closures, and then answers by bilinear interpolation, vectorised over
-any number of panels that share the geometry.
+Ray casting (:mod:`.ray_casting`) costs a fraction of a millisecond per panel and sun
+(msg_docs/hexagon_shading.md, section "CPU cost"); a coordinator of thousands of panels
+cannot spend that for every candidate closure every period. A :class:`ShadingTable` casts
+once, for one panel geometry, over a grid of sun directions and candidate closures, and then
+answers by bilinear interpolation, vectorised over any number of panels that share the
+geometry.
 
 The panel is a quad panel (:class:`~flectofold_model.kinematics.panel.PanelGeometry`) or a
 hexagonal one (:class:`~flectofold_model.kinematics.hexagon.HexagonPanel`); each is cast with
@@ -32,8 +33,8 @@ class ShadingTable:
     """Blocked fractions of one panel geometry over sun directions and candidate closures.
 
     ``panel`` is a :class:`PanelGeometry` or a :class:`HexagonPanel`; ``samples`` is the
-    resolution of :func:`.ray_casting.blocked_fraction` (72 scan lines for the default 24:
-    nodes within 0.0063 of the exact area, ``msg_docs/scheduling.md``).
+    resolution of :func:`.ray_casting.blocked_fraction` (72 scan lines for the default 24;
+    the nodes' accuracy: msg_docs/scheduling.md, section "Accuracy of the blocked fraction").
     """
 
     def __init__(self, panel, closures=np.linspace(0.0, 1.0, 11), step_deg=5.0,

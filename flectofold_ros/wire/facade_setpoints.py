@@ -1,13 +1,12 @@
 """``/facade/setpoints``: every panel's commanded closure in one message.
 
-A ``sensor_msgs/msg/JointState`` whose ``name`` holds panel ids and ``position`` their
-closures [0 open, 1 closed], as ``/facade/override`` does (velocity and effort empty). The
-coordinator sends one per decision and per heartbeat instead of one ``Float64`` per panel:
-1,000 messages in a burst from one writer overran the middleware's queues and some arrived
-only at the next reliable repair, 1-3 s late (``msg_docs/panel_node.md``). Each panel process
-takes the entries of its own panels; those of other processes' panels are theirs.
+The message is a ``sensor_msgs/msg/JointState``: ``name`` holds panel ids and ``position``
+their closures [-] (0 open ... 1 closed); ``velocity`` and ``effort`` are empty, as on
+``/facade/override``. The coordinator sends one per decision and per heartbeat; each panel
+process takes the entries of its own panels and leaves those of other processes' panels.
 
-Pure Python (no rclpy). Field table: ``msg_docs/panel_node.md``.
+Pure Python (no rclpy). Field table, and why one message rather than one ``Float64`` per
+panel: msg_docs/panel_node.md, section "Topics", item ``/facade/setpoints``.
 """
 
 
@@ -16,11 +15,28 @@ class SetpointsMessageError(ValueError):
 
 
 def entries(names, positions):
-    """Return ``[(panel id, closure), ...]`` of a message's ``name`` and ``position``.
+    """Return the ``(panel id, closure)`` pairs of a message's ``name`` and ``position``.
 
-    A message whose lists differ in length, or that names a panel twice, is refused whole
-    (:class:`SetpointsMessageError`): which value was meant is unknown. Each closure is
-    returned as given; whether it is a valid setpoint is the panel's guard's to say.
+    A message whose lists differ in length, or that names a panel twice, is refused whole:
+    which value was meant is unknown. Each closure is returned as given; whether it is a
+    valid setpoint is the panel's guard's to say.
+
+    Parameters
+    ----------
+    names : sequence of str
+        The message's ``name``: panel ids.
+    positions : sequence of float
+        The message's ``position``: closures [-] (0 open ... 1 closed), one per name.
+
+    Returns
+    -------
+    list of (str, float)
+        ``[(panel id, closure), ...]`` in the message's order.
+
+    Raises
+    ------
+    SetpointsMessageError
+        If ``names`` and ``positions`` differ in length, or a panel id occurs more than once.
     """
     if len(names) != len(positions):
         raise SetpointsMessageError(
@@ -34,7 +50,25 @@ def entries(names, positions):
 
 
 def fields(panel_ids, closures):
-    """Return ``(name, position)`` for a message commanding ``closures`` to ``panel_ids``."""
+    """Return ``(name, position)`` for a message commanding ``closures`` to ``panel_ids``.
+
+    Parameters
+    ----------
+    panel_ids : sequence of str
+        The panels commanded.
+    closures : iterable of float
+        Their closures [-] (0 open ... 1 closed), one per panel id, in the same order.
+
+    Returns
+    -------
+    tuple of (list of str, list of float)
+        The message's ``name`` and ``position`` fields.
+
+    Raises
+    ------
+    ValueError
+        If the number of closures differs from the number of panel ids.
+    """
     closures = [float(value) for value in closures]
     if len(closures) != len(panel_ids):
         raise ValueError(f'{len(closures)} closure(s) for {len(panel_ids)} panel id(s)')
