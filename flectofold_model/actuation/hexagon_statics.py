@@ -119,6 +119,7 @@ class HexagonActuationModel(StaticActuationModel):
 
     shape_name = 'centre_rise_m'
     derivative_step = RISE_STEP_M
+    stiffness_step = 1e-4
 
     def __init__(self, panels, quadrature_points=24):
         panels = self._checked_panels(panels, HexagonActuatedPanel)
@@ -213,17 +214,6 @@ class HexagonActuationModel(StaticActuationModel):
         radius = np.clip((self._cushion_radius[:, None] - math.pi * centre_gap / 4.0)
                          / (1.0 - math.pi * steepening / 4.0), 0.0, None)
         return np.sum(radius ** 2 / 2.0 * self._volume_weights, axis=-1)
-
-    def stiffness_at_shape(self, rise, gauge_pressure_pa):
-        """``U'' - p V''`` [J/m2], the stiffness of the one degree of freedom ``d``."""
-        rise = self._shape_array(rise)
-        step = 1e-4
-
-        def second(function):
-            return (function(rise + step, self._all) - 2 * function(rise, self._all)
-                    + function(rise - step, self._all)) / step ** 2
-
-        return second(self.energy) - gauge_pressure_pa * second(self.volume)
 
     def shape_table(self, closures):
         """Centre rises [m] and apex fold angles [rad] (N, S) at closure samples (S,).

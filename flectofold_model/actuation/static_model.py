@@ -27,7 +27,8 @@ class StaticActuationModel:
 
     Subclasses set ``panels``, ``quadrature_points``, ``fold`` (a fold model of the kind),
     ``_all`` (``arange(N)``), ``derivative_step`` (the central-difference step in the shape
-    parameter), ``shape_name`` (the shape parameter's name in error messages) and
+    parameter), ``stiffness_step`` (the second-difference step of :meth:`stiffness_at_shape`),
+    ``shape_name`` (the shape parameter's name in error messages) and
     ``closed_pressure_pa``, and define ``energy``, ``volume`` and ``pressure``.
     """
 
@@ -67,6 +68,21 @@ class StaticActuationModel:
     def pressure_from_shape(self, shape):
         """Gauge pressure [Pa] that holds each panel at shape parameter ``shape``."""
         return self.pressure(self._shape_array(shape), self._all)
+
+    def stiffness_at_shape(self, shape, gauge_pressure_pa):
+        """``U'' - p V''``, the stiffness of the one degree of freedom, the shape parameter.
+
+        Second derivatives by central second differences of step ``stiffness_step``; in J per
+        square unit of the shape parameter. Positive: the state is stable under the pressure.
+        """
+        shape = self._shape_array(shape)
+        step = self.stiffness_step
+
+        def second(function):
+            return (function(shape + step, self._all) - 2 * function(shape, self._all)
+                    + function(shape - step, self._all)) / step ** 2
+
+        return second(self.energy) - gauge_pressure_pa * second(self.volume)
 
     def pressure_from_closure(self, closure):
         """Gauge pressure [Pa] that holds each panel at closure in [0, 1]."""

@@ -98,6 +98,7 @@ class ActuationModel(StaticActuationModel):
 
     shape_name = 'elastica_k'
     derivative_step = DERIVATIVE_STEP
+    stiffness_step = 1e-5
 
     def __init__(self, panels, quadrature_points=32):
         panels = self._checked_panels(panels, ActuatedPanel)
@@ -198,18 +199,7 @@ class ActuationModel(StaticActuationModel):
 
     pressure_from_k = StaticActuationModel.pressure_from_shape
 
-    def stiffness_at_k(self, k, gauge_pressure_pa):
-        """``U'' - p V''`` [J], the stiffness of the one degree of freedom ``k``."""
-        k = self._k_array(k)
-        step = 1e-5
-
-        def second(function):
-            return (function(k + step, self._all) - 2 * function(k, self._all)
-                    + function(k - step, self._all)) / step**2
-
-        return second(self.energy) - gauge_pressure_pa * second(self.volume)
-
-    stiffness_at_shape = stiffness_at_k
+    stiffness_at_k = StaticActuationModel.stiffness_at_shape
     k_from_pressure = StaticActuationModel.shape_from_pressure
 
     def wind_response(self, wind_pressure_pa=1000.0, topology=MeshTopology(21, 5, 11)):

@@ -18,7 +18,8 @@ PARAMETERS = {
     'modbus.host': string('127.0.0.1', "hardware modbus: the terminal's host name or address"),
     'modbus.port': integer(502, "hardware modbus: the terminal's Modbus TCP port", 1, 65535),
     'modbus.timeout_s': double(
-        0.05, 'hardware modbus: longest wait for a reply [s]; a late one is comms_lost',
+        0.05, 'hardware modbus: longest wait for a connection or a reply [s]; a late reply is '
+        'comms_lost',
         0.001, 1.0),
     'control_period_s': double(0.1, 'Pressure loop period [s]', 0.01, 1.0),
     'control.time_constant_s': double(
