@@ -30,9 +30,9 @@ class PanelProgram(Program):
     """A panel process as a program: on close, the valves shut.
 
     As an executable (``panel_node``, ``panel_group``) it ends its process right after, without
-    tearing down its DDS entities one by one (:attr:`Program.teardown`): 500 panel nodes took
-    31 s to destroy; the process's end frees them, and its peers drop its participant when
-    its lease runs out (``fastdds_panel_process.xml``: 3 s).
+    tearing down its DDS entities one by one (:attr:`Program.teardown`; the process's end
+    frees them, and its peers drop its participant when its lease runs out; why:
+    ``msg_docs/panel_node.md``, "The loop and the hardware interface").
     """
 
     def __init__(self, nodes, process, teardown=True):

@@ -42,10 +42,9 @@ EXECUTABLES = {
 
 
 #: Executables that leave at once when their ``main`` returns, without the interpreter's
-#: teardown: unloading the compiled kernels' LLVM code and the DDS libraries takes 0.6-0.8 s
-#: (measured), which would make a panel process answer Ctrl-C in over 2 s. Their valves are
-#: shut by then and the standard streams are flushed; their DDS entities go with the process
-#: (``PanelProgram``: destroying thousands one by one takes minutes).
+#: teardown (unloading the compiled kernels' LLVM code and the DDS libraries; its cost:
+#: ``msg_docs/panel_node.md``). Their valves are shut by then and the standard streams are
+#: flushed; their DDS entities go with the process (``PanelProgram``).
 FAST_EXIT = frozenset({'panel_node', 'panel_group'})
 
 
