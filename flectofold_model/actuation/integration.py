@@ -22,6 +22,8 @@ pressure going linearly over each step; the air counters (fill inflow, vent outf
 are integrated with the same weights as the pressure.
 
 The kernels are compiled with numba [3] on first use and cached on disk next to this module.
+Their tuples have named fields (:class:`CushionTables`, :class:`EngineCircuit`), passed from
+Python as plain tuples and named on entry, as in :mod:`flectofold_model.control.loop_kernel`.
 
 References: [1] J. R. Dormand, P. J. Prince, "A family of embedded Runge-Kutta formulae",
 J. Comput. Appl. Math. 6 (1980) 19-26; [2] E. Hairer, S. P. Norsett, G. Wanner, *Solving
@@ -33,6 +35,7 @@ m^3/(s*Pa), times in s.
 """
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 
@@ -64,6 +67,64 @@ _E1, _E3, _E4, _E5, _E6, _E7 = (71.0 / 57600.0, -71.0 / 16695.0, 71.0 / 1920.0,
                                 -17253.0 / 339200.0, 22.0 / 525.0, -1.0 / 40.0)
 
 _ATM = ATMOSPHERIC_PRESSURE_PA
+
+
+class CushionTables(NamedTuple):
+    """The cushion tables of the distinct panels (R, S).
+
+    Each row holds one distinct panel's cushion at the map's closure samples; a panel's row in
+    them is given beside (``row``, (N,)).
+    """
+
+    pressure_pa: np.ndarray
+    """Gauge pressure [Pa], rising along each row."""
+    volume_m3: np.ndarray
+    """Cushion volume [m^3]."""
+    compliance_m3_per_pa: np.ndarray
+    """Cushion compliance dV/dp [m^3/Pa], off the stops."""
+
+
+class EngineCircuit(NamedTuple):
+    """The circuit's constants, shared by all panels."""
+
+    critical_ratio: float
+    """Critical pressure ratio of the valves' ISO 6358 model [-]."""
+    temperature_scale: float
+    """ANR density times sqrt(ANR temperature / air temperature) [kg/m^3]: a conductance
+    [m^3/(s*Pa)] times this and an upstream pressure [Pa] is a mass flow [kg/s]."""
+    rt_j_per_kg: float
+    """Gas constant of air times its temperature [J/kg]."""
+    dead_volume_m3: float
+    """Volume of the lines and fittings beside the cushion [m^3]."""
+    relief_cracking_pa: float
+    """Gauge pressure at which the relief valve starts to open [Pa]."""
+    relief_span_pa: float
+    """Pressure rise over which the relief valve goes from cracking to fully open [Pa]."""
+    relief_conductance_m3_s_pa: float
+    """Conductance of the fully open relief valve [m^3/(s*Pa)]."""
+
+
+@inline_kernel
+def named_engine(tables, circuit):
+    """Return :class:`CushionTables` and :class:`EngineCircuit` of plain (or named) tuples."""
+    return CushionTables(*tables), EngineCircuit(*circuit)
+
+
+class _Panel(NamedTuple):
+    """What :func:`_rates` needs of one panel over one call: constant while it runs."""
+
+    fill_conductance: float
+    """Fill valve conductance at its opening [m^3/(s*Pa)]."""
+    vent_conductance: float
+    """Vent valve conductance at its opening [m^3/(s*Pa)]."""
+    leak_conductance: float
+    """Conductance of a leak to the atmosphere [m^3/(s*Pa)]."""
+    supply_pa: float
+    """Supply pressure [Pa]."""
+    tables: CushionTables
+    row: int
+    """The panel's row in ``tables``."""
+    circuit: EngineCircuit
 
 
 @inline_kernel
@@ -119,33 +180,35 @@ def off_stops(table, gauge_pa):
 def _rates(pressure_pa, panel):
     """``dp/dt`` [Pa/s], fill inflow and vent outflow [m^3/s free air] of one panel.
 
-    ``panel`` is its fill, vent and leak conductance [m^3/(s*Pa)], its supply [Pa], the cushion
-    tables and its row in them, and the circuit tuple.
+    ``panel`` is a :class:`_Panel`.
     """
-    fill_conductance, vent_conductance, leak_conductance, supply_pa, tables, row, circuit = \
-        panel
-    (critical_ratio, temperature_scale, rt, dead_volume, relief_cracking, relief_span,
-     relief_conductance) = circuit
+    circuit, tables = panel.circuit, panel.tables
+    critical_ratio, temperature_scale = circuit.critical_ratio, circuit.temperature_scale
     p = max(pressure_pa, _ATM)
-    fill = 0.0 if fill_conductance == 0.0 else mass_flow(supply_pa, p, fill_conductance,
-                                                         critical_ratio, temperature_scale)
+    fill = 0.0 if panel.fill_conductance == 0.0 else mass_flow(
+        panel.supply_pa, p, panel.fill_conductance, critical_ratio, temperature_scale)
     per_conductance = mass_flow(p, _ATM, 1.0, critical_ratio, temperature_scale)
-    relief = min(max((p - _ATM - relief_cracking) / relief_span, 0.0), 1.0) * relief_conductance
-    exhaust = vent_conductance + leak_conductance + relief
-    volume, compliance = _cushion(tables[0], tables[1], tables[2], row, p - _ATM)
-    capacitance = volume + dead_volume + p * compliance
-    rate = rt * (fill - per_conductance * exhaust) / capacitance
+    relief = (min(max((p - _ATM - circuit.relief_cracking_pa) / circuit.relief_span_pa, 0.0), 1.0)
+              * circuit.relief_conductance_m3_s_pa)
+    exhaust = panel.vent_conductance + panel.leak_conductance + relief
+    volume, compliance = _cushion(tables.pressure_pa, tables.volume_m3,
+                                  tables.compliance_m3_per_pa, panel.row, p - _ATM)
+    capacitance = volume + circuit.dead_volume_m3 + p * compliance
+    rate = circuit.rt_j_per_kg * (fill - per_conductance * exhaust) / capacitance
     return (rate, max(fill, 0.0) / ANR_DENSITY_KG_M3,
-            per_conductance * vent_conductance / ANR_DENSITY_KG_M3)
+            per_conductance * panel.vent_conductance / ANR_DENSITY_KG_M3)
 
 
 @inline_kernel
 def advance_panel(i, dt_s, pressure, free_air_m3, vented_m3, lagged_pa, step_s, fill, vent,
                   leak, supply, tables, row, circuit, sensor_lag_s, tolerance_pa):
-    """Integrate panel ``i`` over ``dt_s``; return the steps accepted and rejected."""
+    """Integrate panel ``i`` over ``dt_s``; return the steps accepted and rejected.
+
+    ``tables`` and ``circuit`` are named (:func:`named_engine`).
+    """
     p, free_air, vented, lagged = pressure[i], free_air_m3[i], vented_m3[i], lagged_pa[i]
     h = step_s[i]
-    panel = (fill[i], vent[i], leak[i], supply[i], tables, row[i], circuit)
+    panel = _Panel(fill[i], vent[i], leak[i], supply[i], tables, row[i], circuit)
     k1, f1, v1 = _rates(p, panel)
     t, accepted, rejected = 0.0, 0, 0
     while t < dt_s:
@@ -189,6 +252,7 @@ def advance_panel(i, dt_s, pressure, free_air_m3, vented_m3, lagged_pa, step_s, 
 @kernel
 def _advance_all(dt_s, pressure, free_air_m3, vented_m3, lagged_pa, step_s, fill, vent, leak,
                  supply, tables, row, circuit, sensor_lag_s, tolerance_pa):
+    tables, circuit = named_engine(tables, circuit)
     accepted, rejected = 0, 0
     for i in range(pressure.shape[0]):
         a, r = advance_panel(i, dt_s, pressure, free_air_m3, vented_m3, lagged_pa, step_s,
@@ -215,13 +279,15 @@ class EmbeddedIntegrator:
     """
 
     def __init__(self, parameters, cushion_map, count, tolerance_pa=TOLERANCE_PA):
-        tables = cushion_map.tables()
-        self._tables = tuple(np.ascontiguousarray(t, dtype=np.float64) for t in tables[:3])
-        self._row = np.ascontiguousarray(tables[3], dtype=np.int64)
+        *tables, row = cushion_map.tables()
+        pressure, volume, compliance = (np.ascontiguousarray(t, dtype=np.float64) for t in tables)
+        self._tables = tuple(CushionTables(pressure_pa=pressure, volume_m3=volume,
+                                           compliance_m3_per_pa=compliance))
+        self._row = np.ascontiguousarray(row, dtype=np.int64)
         if self._row.shape != (count,):
             raise ValueError(f'the cushion map has {self._row.shape[0]} panels, the plant '
                              f'{count}')
-        if np.min(self._tables[1]) + parameters.dead_volume_m3 <= 0.0:
+        if np.min(volume) + parameters.dead_volume_m3 <= 0.0:
             raise ValueError('the chamber has no volume: give dead_volume_m3 > 0 or a cushion '
                              'map with a positive volume')
         number = isinstance(tolerance_pa, (int, float)) and not isinstance(tolerance_pa, bool)
@@ -229,20 +295,26 @@ class EmbeddedIntegrator:
             raise ValueError(f'tolerance_pa must be positive and finite, got {tolerance_pa!r}')
         self.tolerance_pa = float(tolerance_pa)
         self._sensor_lag_s = parameters.sensor_lag_s
-        self._circuit = (
-            parameters.critical_ratio,
-            ANR_DENSITY_KG_M3 * math.sqrt(ANR_TEMPERATURE_K / parameters.temperature_k),
-            AIR_GAS_CONSTANT * parameters.temperature_k, parameters.dead_volume_m3,
-            parameters.relief_cracking_pa,
-            parameters.relief_full_open_pa - parameters.relief_cracking_pa,
-            parameters.relief_conductance_m3_s_pa)
+        self._circuit = tuple(EngineCircuit(
+            critical_ratio=parameters.critical_ratio,
+            temperature_scale=ANR_DENSITY_KG_M3 * math.sqrt(
+                ANR_TEMPERATURE_K / parameters.temperature_k),
+            rt_j_per_kg=AIR_GAS_CONSTANT * parameters.temperature_k,
+            dead_volume_m3=parameters.dead_volume_m3,
+            relief_cracking_pa=parameters.relief_cracking_pa,
+            relief_span_pa=parameters.relief_full_open_pa - parameters.relief_cracking_pa,
+            relief_conductance_m3_s_pa=parameters.relief_conductance_m3_s_pa))
         self.step_s = np.full(count, parameters.max_step_s)
         """Each panel's next step length [s], kept from call to call."""
         self.rejected_steps = 0
         """Steps whose error was too large, retried shorter, since construction."""
 
     def kernel_constants(self):
-        """Return the cushion tables, rows, circuit tuple, sensor lag and tolerance."""
+        """Return the tables, rows, circuit, sensor lag [s] and tolerance [Pa] of the kernels.
+
+        The tables are the :class:`CushionTables` fields and the circuit the
+        :class:`EngineCircuit` fields, each a plain tuple; the rows (N,) int64.
+        """
         return self._tables, self._row, self._circuit, self._sensor_lag_s, self.tolerance_pa
 
     def advance(self, dt_s, state, fill_conductance, vent_conductance, leak_conductance,

@@ -170,15 +170,18 @@ class PressureController:
             parameters.max_gauge_pa - 3 * parameters.pressure_margin_pa)
         self.set_safe_action(safe_action)
         self.kernel_parameters = loop_kernel.parameter_tuple(parameters)
-        """The parameters as the compiled loop takes them."""
-        self.kernel_circuit = (
-            plant.fill_conductance_m3_s_pa, plant.vent_conductance_m3_s_pa,
-            plant.critical_ratio,
-            ANR_DENSITY_KG_M3 * math.sqrt(ANR_TEMPERATURE_K / plant.temperature_k),
-            plant.dead_volume_m3, AIR_GAS_CONSTANT * plant.temperature_k)
-        """The circuit's constants as the compiled loop takes them."""
+        """The parameters as the compiled loop takes them: ``LoopParameters``' fields."""
+        self.kernel_circuit = tuple(loop_kernel.LoopCircuit(
+            fill_conductance_m3_s_pa=plant.fill_conductance_m3_s_pa,
+            vent_conductance_m3_s_pa=plant.vent_conductance_m3_s_pa,
+            critical_ratio=plant.critical_ratio,
+            temperature_scale=ANR_DENSITY_KG_M3 * math.sqrt(
+                ANR_TEMPERATURE_K / plant.temperature_k),
+            dead_volume_m3=plant.dead_volume_m3,
+            rt_j_per_kg=AIR_GAS_CONSTANT * plant.temperature_k))
+        """The circuit's constants as the compiled loop takes them: ``LoopCircuit``'s fields."""
         self.kernel_tables = cushion_map.compiled_tables()
-        """The static map's tables as the compiled loop takes them."""
+        """The static map's tables as the compiled loop takes them: ``MapTables``' fields."""
         self._fill = np.zeros(count)
         self._vent = np.zeros(count)
         self._warn_if_unreachable()

@@ -10,6 +10,7 @@ from types import SimpleNamespace
 import pytest
 
 from flectofold_ros.runtime import domain_watch
+from flectofold_ros.wire import contract
 
 UNKNOWN = SimpleNamespace(node_namespace='_NODE_NAMESPACE_UNKNOWN_',
                           node_name='_NODE_NAME_UNKNOWN_')
@@ -47,8 +48,8 @@ def test_a_sender_the_graph_names_is_logged_in_the_same_line():
 
 def test_a_sender_known_only_as_an_endpoint_is_named_in_a_second_line_once_the_graph_has_it():
     node = ScriptedNode([[UNKNOWN], [UNKNOWN], [STRANGER]])
-    domain_watch.log_with_service_clients(node, '/facade/r01c01/reset_faults',
-                                          'reset_faults (supply_lost)')
+    service_name = contract.reset_faults_service('r01c01')
+    domain_watch.log_with_service_clients(node, service_name, 'reset_faults (supply_lost)')
     assert len(node.lines) == 1 and 'not named yet' in node.lines[0]
     assert node.lines[0].startswith('reset_faults (supply_lost) from a sender')
     timer, = node.timers
@@ -58,7 +59,7 @@ def test_a_sender_known_only_as_an_endpoint_is_named_in_a_second_line_once_the_g
     timer.callback()
     assert node.lines[1].startswith('reset_faults (supply_lost) from /stranger (named ')
     assert not timer.live
-    assert node.topics[0] == ('rq/facade/r01c01/reset_faultsRequest', True)
+    assert node.topics[0] == (f'rq{service_name}Request', True)
 
 
 def test_a_sender_never_named_ends_its_wait_with_a_line_saying_so(monkeypatch):
