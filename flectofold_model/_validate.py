@@ -6,11 +6,29 @@ boundary with a message that names the value and the reason.
 
 from dataclasses import fields
 from numbers import Real
+import os
+from typing import Any, TypeVar, Union
 
 import numpy as np
+import numpy.typing as npt
+
+#: A float64 array: what the model's vectorised functions return, one value per panel, time
+#: or vertex.
+FloatArray = npt.NDArray[np.float64]
+#: A float or an array of floats (of any precision): a value that broadcasts against the
+#: per-panel arrays.
+FloatOrArray = Union[float, npt.NDArray[np.floating[Any]]]
+#: A boolean array: a mask over panels, times or sensors.
+BoolArray = npt.NDArray[np.bool_]
+#: An integer array: indices of panels, vertices or faces.
+IntArray = npt.NDArray[np.integer[Any]]
+#: A file's path: text or a path object.
+PathLike = Union[str, os.PathLike[str]]
+
+_ArrayT = TypeVar('_ArrayT', bound=npt.NDArray[Any])
 
 
-def real_array(name, value):
+def real_array(name: str, value: npt.ArrayLike) -> FloatArray:
     """Return ``value`` as a float64 array; refuse non-numbers, NaN and infinity."""
     if isinstance(value, (bool, np.bool_)) or isinstance(value, (str, bytes)):
         raise TypeError(f'{name} must be a real number or an array of them, got {value!r}')
@@ -26,7 +44,7 @@ def real_array(name, value):
     return array
 
 
-def real_scalar(name, value):
+def real_scalar(name: str, value: object) -> float:
     """Return ``value`` as a float; refuse non-numbers, booleans, NaN and infinity."""
     if isinstance(value, (bool, np.bool_)) or not isinstance(value, Real):
         raise TypeError(f'{name} must be a real number, got {value!r}')
@@ -36,14 +54,15 @@ def real_scalar(name, value):
     return number
 
 
-def real_fields(instance):
+def real_fields(instance: Any) -> None:
     """Replace every field of a frozen dataclass by its checked float (see real_scalar)."""
     for field in fields(instance):
         object.__setattr__(instance, field.name,
                            real_scalar(field.name, getattr(instance, field.name)))
 
 
-def in_range(name, array, low, high, unit='', low_open=False, high_open=False):
+def in_range(name: str, array: _ArrayT, low: float, high: float, unit: str = '',
+             low_open: bool = False, high_open: bool = False) -> _ArrayT:
     """Check ``low <= array <= high`` (or strict where asked) and return ``array``."""
     below = array <= low if low_open else array < low
     above = array >= high if high_open else array > high
@@ -57,7 +76,7 @@ def in_range(name, array, low, high, unit='', low_open=False, high_open=False):
     return array
 
 
-def _first_bad(array, bad):
+def _first_bad(array: npt.NDArray[Any], bad: npt.ArrayLike) -> str:
     flat = np.flatnonzero(np.broadcast_to(bad, array.shape))
     if array.ndim == 0:
         return f'{float(array):g}'
@@ -65,7 +84,7 @@ def _first_bad(array, bad):
     return f'{float(array[index]):g} at index {tuple(int(i) for i in index)}'
 
 
-def panel_mask(panels, count):
+def panel_mask(panels: npt.ArrayLike, count: int) -> BoolArray:
     """Turn a boolean mask (N,) or an array of panel indices into a boolean ``(N,)`` mask."""
     if isinstance(panels, (str, bytes)):
         raise TypeError(f'panels must be a boolean mask or panel indices, got {panels!r}')

@@ -17,13 +17,17 @@ No rclpy: the model, the nodes and the recorder's readers share it.
 
 import re
 import reprlib
+from typing import Any, Optional
 
 import yaml
 from yaml.composer import Composer
 from yaml.constructor import SafeConstructor
+from yaml.error import Mark
 from yaml.events import AliasEvent
-from yaml.nodes import ScalarNode
+from yaml.nodes import MappingNode, Node, ScalarNode
 from yaml.resolver import Resolver
+
+from flectofold_model._validate import PathLike
 
 try:  # libyaml's parser when the wheel has it (fast); composing stays here, bounded
     from yaml.cyaml import CParser as _Parser
@@ -32,8 +36,8 @@ except ImportError:  # pragma: no cover - the pure-Python parser of the same eve
     from yaml.reader import Reader
     from yaml.scanner import Scanner
 
-    class _Parser(Reader, Scanner, Parser):
-        def __init__(self, stream):
+    class _Parser(Reader, Scanner, Parser):  # type: ignore[no-redef]
+        def __init__(self, stream: str) -> None:
             Reader.__init__(self, stream)
             Scanner.__init__(self)
             Parser.__init__(self)
@@ -66,9 +70,9 @@ class UniqueKeys:
     #: Name of the document in messages; composers that know it set it.
     _source = 'YAML'
 
-    def compose_mapping_node(self, anchor):
-        node = super().compose_mapping_node(anchor)
-        first = {}
+    def compose_mapping_node(self, anchor: Optional[str]) -> MappingNode:
+        node = super().compose_mapping_node(anchor)  # type: ignore[misc]  # mixed with Composer
+        first: dict[tuple[str, Any], Mark] = {}
         for key, _ in node.value:
             if not isinstance(key, ScalarNode):
                 continue
@@ -83,11 +87,11 @@ class UniqueKeys:
 class _BoundedComposer(UniqueKeys, Composer):
     """The PyYAML composer, counting nodes and depth, refusing aliases (and anchors if asked)."""
 
-    def __init__(self, source, anchors=True):
+    def __init__(self, source: str, anchors: bool = True) -> None:
         super().__init__()
         self._source, self._anchors, self._nodes, self._depth = source, anchors, 0, 0
 
-    def compose_node(self, parent, index):
+    def compose_node(self, parent: Optional[Node], index: object) -> Node:
         if self.check_event(AliasEvent):
             mark = self.peek_event().start_mark
             if not self._anchors:
@@ -109,7 +113,7 @@ class _BoundedComposer(UniqueKeys, Composer):
         finally:
             self._depth -= 1
 
-    def _anchor_error(self, mark):
+    def _anchor_error(self, mark: Mark) -> YAMLInputError:
         return YAMLInputError(f'{self._source}: {_where(mark)}: YAML anchors and aliases '
                               f'(&name, *name) are not accepted; write values out')
 
@@ -117,7 +121,7 @@ class _BoundedComposer(UniqueKeys, Composer):
 class _Loader(_BoundedComposer, _Parser, SafeConstructor, Resolver):
     """Safe construction of plain values from a bounded composition (see the module)."""
 
-    def __init__(self, text, source, anchors=True):
+    def __init__(self, text: str, source: str, anchors: bool = True) -> None:
         _Parser.__init__(self, text)
         _BoundedComposer.__init__(self, source, anchors)
         SafeConstructor.__init__(self)
@@ -146,11 +150,11 @@ _DecimalLoader.add_implicit_resolver(
 _LINE_BREAK = re.compile('\r\n|[\n\r\x85\u2028\u2029]')
 
 
-def _where(mark):
+def _where(mark: Mark) -> str:
     return f'line {mark.line + 1}, column {mark.column + 1}'
 
 
-def _yaml_reason(error, text):
+def _yaml_reason(error: yaml.YAMLError, text: str) -> str:
     """One line from a PyYAML error in ``text``: where and what, without the quoted lines.
 
     An error at the end of a text without a final line break is placed after its last
@@ -168,11 +172,12 @@ def _yaml_reason(error, text):
     return _one_line(f'{where}: {problem}' + (f' ({context})' if context else ''))
 
 
-def _one_line(message, limit=300):
+def _one_line(message: object, limit: int = 300) -> str:
     return _short(' '.join(str(message).split()), limit)
 
 
-def load_yaml(text, source='YAML', max_characters=None, anchors=True, decimal_numbers=False):
+def load_yaml(text: str, source: str = 'YAML', max_characters: Optional[int] = None,
+              anchors: bool = True, decimal_numbers: bool = False) -> Any:
     """Return the plain value of one YAML document; refuse it (:class:`YAMLInputError`).
 
     ``source`` names the document in the messages (a path, a parameter). Rules a reader may
@@ -203,7 +208,7 @@ def load_yaml(text, source='YAML', max_characters=None, anchors=True, decimal_nu
         loader.dispose()
 
 
-def read_yaml(path, source=None):
+def read_yaml(path: PathLike, source: Optional[str] = None) -> Any:
     """Read a YAML file within the bounds of :func:`load_yaml` and return its value.
 
     Raises :class:`YAMLInputError` for the document and ``OSError`` for the file.
@@ -223,7 +228,7 @@ _REPR.maxstring = _REPR.maxother = REPR_LIMIT
 _REPR.maxlevel, _REPR.maxdict, _REPR.maxlist, _REPR.maxtuple, _REPR.maxset = 3, 4, 6, 6, 6
 
 
-def short_repr(value):
+def short_repr(value: object) -> str:
     """``repr(value)`` in at most about :data:`REPR_LIMIT` characters, whatever the value."""
     if isinstance(value, int) and not isinstance(value, bool) and value.bit_length() > 200:
         return f'<an integer of {value.bit_length()} bits>'  # repr() could refuse it
@@ -233,5 +238,5 @@ def short_repr(value):
         return f'<a {type(value).__name__}>'
 
 
-def _short(text, limit):
+def _short(text: str, limit: int) -> str:
     return text if len(text) <= limit else f'{text[:limit - 3]}...'

@@ -27,15 +27,19 @@ import math
 import os
 import tempfile
 import time
+from typing import Any, Callable, cast, Mapping, Optional, Sequence
 
 import numpy as np
 
+from flectofold_model._validate import BoolArray, FloatArray, PathLike
+from flectofold_model.building.daylight import CandidateDaylight, DaylightFigures
 from flectofold_model.building.energyplus_model import (GROUND_ALBEDO, GROUND_SCHEDULE,
-                                                        IDEAL_LOADS, Room, run,
+                                                        IDEAL_LOADS, Room, run, RunPeriod,
                                                         shoebox_epjson)
-from flectofold_model.building.facade_loop import FacadeInTheLoop, STRATEGIES
+from flectofold_model.building.facade_loop import FacadeInTheLoop, StepResult, STRATEGIES
 from flectofold_model.environment.sun import Site
 from flectofold_model.environment.weather import REFERENCE_YEAR, Weather, weather_at
+from flectofold_model.facade.description import Facade
 from flectofold_model.scheduling.facade_schedule import representative_panel
 from flectofold_model.shading.table import ShadingTable
 
@@ -74,11 +78,11 @@ class StrategyRoom:
     """(S,) the ground reflectance seen through the facade written at each step."""
     steps: np.ndarray
     """(S,) step of the year of each written value (0: the first 10 min of 1 January)."""
-    closure: np.ndarray = None
+    closure: Optional[np.ndarray] = None
     """(S,) the facade's mean closure over each step (footprint-weighted; empty: none)."""
-    monthly_kwh_m2: dict = None
+    monthly_kwh_m2: Optional[dict] = None
     """``cooling``, ``heating``, ``lighting``: (12,) per calendar month [kWh/m2 of floor]."""
-    daylight: object = None
+    daylight: Optional[DaylightFigures] = None
     """The row's :class:`~.daylight.DaylightFigures` (None: daylight not computed)."""
 
 
@@ -93,14 +97,14 @@ class BuildingReport:
     """((begin month, day), (end month, day)), local standard time."""
     rows: tuple
 
-    def figures(self, name):
+    def figures(self, name: str) -> StrategyRoom:
         """Return the :class:`StrategyRoom` of row ``name``."""
         for row in self.rows:
             if row.name == name:
                 return row
         raise KeyError(name)
 
-    def lines(self):
+    def lines(self) -> list[str]:
         """Return the table as text lines, each figure named with its unit."""
         (m0, d0), (m1, d1) = self.run_period
         floor = self.room.width_m * self.room.depth_m
@@ -126,14 +130,15 @@ class BuildingReport:
             'by irradiance); moves, air: as in the annual report']
         lit = [r for r in self.rows if r.daylight is not None]
         if lit:
-            lines += [f'daylight and glare, Radiance, {lit[0].daylight.office_hours} office '
+            office_hours = cast(DaylightFigures, lit[0].daylight).office_hours
+            lines += [f'daylight and glare, Radiance, {office_hours} office '
                       'hours (08-18 local standard time)',
                       f'{"":<14}{"sDA300":>8}{"ASE1000":>9}{"UDI":>7}{"<100":>7}{"> 2000":>8}'
                       f'{"mean E":>8}{"glare":>7}{"GA":>7}{"sun seen":>10}',
                       f'{"":<14}{"[%]":>8}{"[%]":>9}{"[%]":>7}{"[%]":>7}{"[%]":>8}'
                       f'{"[lx]":>8}{"[h]":>7}{"[%]":>7}{"[h]":>10}']
             for r in lit:
-                d = r.daylight
+                d = cast(DaylightFigures, r.daylight)
                 lines.append(f'{r.name:<14}{100 * d.sda:>8.1f}{100 * d.ase:>9.1f}'
                              f'{100 * d.udi:>7.1f}{100 * d.udi_short:>7.1f}'
                              f'{100 * d.udi_exceeded:>8.1f}{d.mean_lx:>8.0f}'
@@ -147,9 +152,12 @@ class BuildingReport:
         return lines
 
 
-def building_report(facade, weather, epw_path, room=Room(), run_period=((1, 1), (12, 31)),
-                    rows=ROWS, table=None, workdir=None, progress=None,
-                    sky_diffuse='DetailedSkyDiffuseModeling', daylight=None):
+def building_report(facade: Facade, weather: Weather, epw_path: PathLike, room: Room = Room(),
+                    run_period: RunPeriod = ((1, 1), (12, 31)), rows: Sequence[str] = ROWS,
+                    table: Optional[ShadingTable] = None, workdir: Optional[PathLike] = None,
+                    progress: Optional[Callable[[str], None]] = None,
+                    sky_diffuse: str = 'DetailedSkyDiffuseModeling',
+                    daylight: Optional[Mapping[str, Any]] = None) -> BuildingReport:
     """Run the room behind ``facade`` under each row's strategy; see the module doc.
 
     ``weather`` is ``epw_path`` read by :func:`~flectofold_model.environment.read_weather`
@@ -206,7 +214,7 @@ def building_report(facade, weather, epw_path, room=Room(), run_period=((1, 1), 
                 peak_cooling_w_m2=figures.peak_cooling_w / floor_m2,
                 transmitted_solar_kwh=figures.transmitted_solar_kwh,
                 window_absorbed_kwh=figures.window_absorbed_kwh,
-                mean_transmittance=1.0 if loop is None else callback.mean_daylight(),
+                mean_transmittance=1.0 if callback is None else callback.mean_daylight(),
                 moves_per_panel=0.0 if loop is None else float(loop.moves.mean()),
                 air_nl=0.0 if loop is None else loop.air_nl + _static_air(name, facade),
                 elapsed_s=time.perf_counter() - started,
@@ -225,7 +233,8 @@ def building_report(facade, weather, epw_path, room=Room(), run_period=((1, 1), 
 class _Daylight:
     """The rows' daylight by Radiance: one matrix model with the facade, one without."""
 
-    def __init__(self, facade, room, epw_path, options, say):
+    def __init__(self, facade: Facade, room: Room, epw_path: PathLike, options: Mapping[str, Any],
+                 say: Callable[[str], None]) -> None:
         from flectofold_model.building import daylight
         self.daylight = daylight
         say('daylight: sky and sun of every hour (gendaymtx)')
@@ -234,12 +243,12 @@ class _Daylight:
                        'bare': daylight.DaylightModel(room, None, progress=say, **options)}
         self.say = say
 
-    def candidates(self, closures):
+    def candidates(self, closures: FloatArray) -> CandidateDaylight:
         """Return the room-aware objective's :class:`~.daylight.CandidateDaylight`."""
         self.say('daylight: every closure state, for the room-aware objective')
         return self.daylight.CandidateDaylight(self.models['facade'], self.skies, closures)
 
-    def figures(self, row, run_period):
+    def figures(self, row: StrategyRoom, run_period: RunPeriod) -> DaylightFigures:
         """Return the row's :class:`~.daylight.DaylightFigures` at the closures it held."""
         if row.name == 'no facade':
             period = period_hours(run_period)
@@ -249,11 +258,11 @@ class _Daylight:
             model = self.models['facade']
             self.say(f'daylight: {row.name}')
             year = model.year(self.skies, self.daylight.hourly_weights(
-                model.states, row.steps, row.closure))
+                model.states, row.steps, cast(np.ndarray, row.closure)))
         return self.daylight.daylight_figures(year)
 
 
-def period_hours(run_period):
+def period_hours(run_period: RunPeriod) -> BoolArray:
     """(8760,) bool: the hours of the year within ``run_period`` (inclusive dates)."""
     days = np.cumsum((0, 31, 28, 31, 30, 31, 30, 31, 31, 30, 31, 30))
     (m0, d0), (m1, d1) = run_period
@@ -270,21 +279,22 @@ class LoopCallback:
     ``month/day`` (``k`` the zone time step number, ``dt`` the zone time step).
     """
 
-    def __init__(self, loop, weather, schedule_name, start_s, step_s=600.0):
+    def __init__(self, loop: FacadeInTheLoop, weather: Weather, schedule_name: str, start_s: float,
+                 step_s: float = 600.0) -> None:
         self.loop = loop
         self.weather = weather
         self.schedule_name = schedule_name
-        self.handle = None
-        self.ground_handle = None
-        self.load_handles = None
-        self.written = []
+        self.handle: Optional[int] = None
+        self.ground_handle: Optional[int] = None
+        self.load_handles: Optional[list[int]] = None
+        self.written: list[float] = []
         """Transmittance written at each run-period step, in order."""
-        self.sun_up = []
-        self.closure = []
+        self.sun_up: list[bool] = []
+        self.closure: list[float] = []
         """The facade's footprint-weighted mean closure over each run-period step."""
-        self.ground = []
+        self.ground: list[float] = []
         """Ground reflectance written at each run-period step, in order."""
-        self.index = []
+        self.index: list[int] = []
         """Step of the year (0 = the first 10 minutes of 1 January) of each written value."""
         # the first day, by a copy of the loop, for EnergyPlus's warm-up days
         self._step_s = step_s
@@ -292,7 +302,7 @@ class LoopCallback:
         self._first_day = [self._step(preview, start_s + k * step_s, step_s)
                            for k in range(int(round(86400.0 / step_s)))]
 
-    def __call__(self, api, state):
+    def __call__(self, api: Any, state: Any) -> None:
         """Set the facade's transmittance for the step that starts now."""
         exchange = api.exchange
         if not exchange.api_data_fully_ready(state):
@@ -325,7 +335,7 @@ class LoopCallback:
         start_s = _epoch_s(exchange.month(state), exchange.day_of_month(state), local_h,
                            self.weather.utc_offset_h)
         room = tuple(exchange.get_variable_value(state, h) if h >= 0 else 0.0
-                     for h in self.load_handles)
+                     for h in cast(list[int], self.load_handles))  # set on the first call
         result = self._step(self.loop, start_s, step_s, room)
         self.index.append((exchange.day_of_year(state) - 1) * int(round(86400.0 / step_s))
                           + in_day)
@@ -336,29 +346,30 @@ class LoopCallback:
         self.sun_up.append(result.sun_up)
         self.closure.append(float(result.closure @ self.loop.weights))
 
-    def _step(self, loop, start_s, step_s, room=(0.0, 0.0)):
+    def _step(self, loop: FacadeInTheLoop, start_s: float, step_s: float,
+              room: Sequence[float] = (0.0, 0.0)) -> StepResult:
         middle = np.array([np.datetime64(int(round((start_s + step_s / 2) * 1e9)), 'ns')])
         sampled = weather_at(self.weather, middle)
         return loop.step(start_s, step_s, float(sampled['dni_w_m2'][0]),
                          float(sampled['dhi_w_m2'][0]), float(sampled['wind_speed_m_s'][0]),
                          room)
 
-    def mean_daylight(self):
+    def mean_daylight(self) -> float:
         """Mean transmittance written over the steps with the sun up."""
         written = np.array(self.written)[np.array(self.sun_up, dtype=bool)]
         return float(written.mean()) if written.size else math.nan
 
 
-def _epoch_s(month, day, local_h, utc_offset_h):
+def _epoch_s(month: int, day: int, local_h: float, utc_offset_h: float) -> float:
     date = np.datetime64(f'{REFERENCE_YEAR}-{month:02d}-{day:02d}', 's')
     return float(date.astype(np.int64)) + (local_h - utc_offset_h) * 3600.0
 
 
-def _start_s(weather, run_period):
+def _start_s(weather: Weather, run_period: RunPeriod) -> float:
     (month, day), _ = run_period
     return _epoch_s(month, day, 0.0, weather.utc_offset_h)
 
 
-def _static_air(name, facade):
+def _static_air(name: str, facade: Facade) -> float:
     from flectofold_model.scheduling.facade_schedule import full_close_air_nl
     return float(np.sum(full_close_air_nl(facade))) if name == 'always closed' else 0.0

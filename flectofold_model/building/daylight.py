@@ -53,8 +53,16 @@ import os
 import subprocess
 import tempfile
 import time
+from typing import Any, Callable, cast, Mapping, Optional, Sequence, TYPE_CHECKING, Union
 
 import numpy as np
+import numpy.typing as npt
+
+from flectofold_model._validate import BoolArray, FloatArray, PathLike
+
+if TYPE_CHECKING:  # the facade's and the room's modules load when used
+    from flectofold_model.building.energyplus_model import Room
+    from flectofold_model.facade.description import Facade
 
 #: Radiance ``glass`` transmissivity per unit visible transmittance (Radiance manual).
 GLASS_TN_PER_TVIS = 1.0895
@@ -74,20 +82,21 @@ MATRIX_PARAMS = ('-ab', '5', '-ad', '10000', '-lw', '1e-6')
 OFFICE_HOURS = (8.0, 18.0)
 
 
-def _radiance():
+def _radiance() -> Mapping[str, str]:
     """Import pyradiance, which puts its Radiance binaries on PATH and sets RAYPATH."""
     import pyradiance  # noqa: F401
     return os.environ
 
 
-def room_to_scene(room):
+def room_to_scene(room: 'Room') -> FloatArray:
     """Rotation (3, 3) from the room frame to the scene frame (east, north, up)."""
     angle = math.radians(180.0 - room.azimuth_deg)
     c, s = math.cos(angle), math.sin(angle)
     return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
 
 
-def facade_triangles(facade, closure, room=None, margin_m=1.0):
+def facade_triangles(facade: 'Facade', closure: npt.ArrayLike, room: Optional['Room'] = None,
+                     margin_m: float = 1.0) -> FloatArray:
     """Triangles (T, 3, 3) of ``facade`` at one closure, in its facade frame [m].
 
     Every panel's folded mesh (:func:`~flectofold_model.facade.folded_mesh.folded_meshes`,
@@ -119,8 +128,10 @@ def facade_triangles(facade, closure, room=None, margin_m=1.0):
     return np.concatenate(kept)
 
 
-def radiance_scene(room, panel_triangles, gap_m=0.05, wall_thickness_m=0.2,
-                   facade_centre_height_m=None, margin_m=1.0, reflectances=None):
+def radiance_scene(room: 'Room', panel_triangles: Optional[npt.ArrayLike], gap_m: float = 0.05,
+                   wall_thickness_m: float = 0.2, facade_centre_height_m: Optional[float] = None,
+                   margin_m: float = 1.0,
+                   reflectances: Optional[Mapping[str, float]] = None) -> str:
     """Radiance scene text (materials and polygons) of the room and its facade, scene frame.
 
     Parameters
@@ -167,19 +178,21 @@ def radiance_scene(room, panel_triangles, gap_m=0.05, wall_thickness_m=0.2,
     lines.append(f'void glass window 0 0 3 {tn:.5f} {tn:.5f} {tn:.5f}')
     count = [0]
 
-    def polygon(material, points):
+    def polygon(material: str, points: npt.ArrayLike) -> None:
         points = np.asarray(points, dtype=float) @ rotation.T
         count[0] += 1
         coordinates = ' '.join(f'{value:.6f}' for value in points.ravel())
         lines.append(f'{material} polygon {material}.{count[0]} 0 0 {3 * len(points)} '
                      f'{coordinates}')
 
-    def rectangle(material, corner, edge_a, edge_b):
+    def rectangle(material: str, corner: Sequence[float], edge_a: Sequence[float],
+                  edge_b: Sequence[float]) -> None:
         """Rectangle from ``corner`` along ``edge_a`` then ``edge_b``: normal a x b."""
         corner, edge_a, edge_b = (np.asarray(v, dtype=float) for v in (corner, edge_a, edge_b))
         polygon(material, [corner, corner + edge_a, corner + edge_a + edge_b, corner + edge_b])
 
-    def framed(material, y, xa, xb, za, zb, inward):
+    def framed(material: str, y: float, xa: float, xb: float, za: float, zb: float,
+               inward: bool) -> None:
         """Four rectangles of the plane at ``y`` from x xa..xb, z za..zb less the window."""
         for (ua, ub, va, vb) in ((xa, xb, za, z0), (xa, xb, z1, zb), (xa, x0, z0, z1),
                                  (x1, xb, z0, z1)):
@@ -214,13 +227,14 @@ def radiance_scene(room, panel_triangles, gap_m=0.05, wall_thickness_m=0.2,
     return '\n'.join(lines) + '\n'
 
 
-def grid_axes(room, spacing_m=0.6, wall_offset_m=0.5):
+def grid_axes(room: 'Room', spacing_m: float = 0.6,
+              wall_offset_m: float = 0.5) -> tuple[FloatArray, FloatArray]:
     """Positions across (x, centred) and into the room (y) of the work-plane grid [m].
 
     ``wall_offset_m`` from every wall, the fewest points per row and column whose spacing
     is at most ``spacing_m`` (LM-83-12: at most 2 ft, 0.61 m).
     """
-    def axis(length):
+    def axis(length: float) -> FloatArray:
         span = length - 2.0 * wall_offset_m
         if span <= 0.0:
             raise ValueError(f'the room ({length:g} m) leaves no grid {wall_offset_m:g} m '
@@ -231,7 +245,8 @@ def grid_axes(room, spacing_m=0.6, wall_offset_m=0.5):
     return axis(room.width_m) - room.width_m / 2.0, axis(room.depth_m)
 
 
-def sensor_grid(room, spacing_m=0.6, height_m=0.76, wall_offset_m=0.5):
+def sensor_grid(room: 'Room', spacing_m: float = 0.6, height_m: float = 0.76,
+                wall_offset_m: float = 0.5) -> FloatArray:
     """Work-plane sensors (N, 6): positions and upward directions in the scene frame.
 
     The grid of :func:`grid_axes` at ``height_m`` (LM-83-12: 30 in, 0.76 m), ordered by
@@ -244,7 +259,7 @@ def sensor_grid(room, spacing_m=0.6, height_m=0.76, wall_offset_m=0.5):
     return np.concatenate([points, np.tile([0.0, 0.0, 1.0], (len(points), 1))], axis=1)
 
 
-def _octree(scene, folder, sky_text):
+def _octree(scene: str, folder: str, sky_text: str) -> str:
     """Write ``scene`` plus ``sky_text`` and compile them with ``oconv``; return the path."""
     environment = _radiance()
     path = os.path.join(folder, 'scene.rad')
@@ -256,7 +271,7 @@ def _octree(scene, folder, sky_text):
     return octree
 
 
-def _rays(sensors):
+def _rays(sensors: npt.ArrayLike) -> str:
     return ''.join(' '.join(f'{v:.6f}' for v in row) + '\n'
                    for row in np.asarray(sensors, dtype=float).reshape(-1, 6))
 
@@ -273,10 +288,12 @@ class DaylightCoefficients:
     """The ``rcontrib`` ray parameters used."""
 
 
-_CACHE = {}
+_CACHE: dict[str, Any] = {}
 
 
-def daylight_coefficients(scene, sensors, sky='r1', params=MATRIX_PARAMS, processes=2):
+def daylight_coefficients(scene: str, sensors: npt.ArrayLike, sky: str = 'r1',
+                          params: Sequence[str] = MATRIX_PARAMS,
+                          processes: int = 2) -> DaylightCoefficients:
     """Daylight coefficients (:class:`DaylightCoefficients`) of ``scene`` at ``sensors``.
 
     ``rcontrib -I+ -faf -b 0 -bn 1 -m groundglow -f reinhartb.cal -p MF=n -b rbin -bn
@@ -329,7 +346,7 @@ SUN_PARAMS = ('-ab', '0', '-dc', '1', '-dt', '0', '-dj', '0', '-ds', '0', '-dr',
 TREGENZA_ROWS = (30, 30, 24, 24, 18, 12, 6)
 
 
-def tregenza_solid_angles():
+def tregenza_solid_angles() -> FloatArray:
     """Solid angles (146,) of the ground hemisphere and the 145 Tregenza patches [sr]."""
     angles = [2.0 * math.pi]
     for row, count in enumerate(TREGENZA_ROWS):
@@ -365,11 +382,11 @@ class SkyYear:
     """(H, 3) unit vector toward the sun at the record's middle (the project's SPA) [-]."""
 
     @property
-    def office(self):
+    def office(self) -> BoolArray:
         """Mask (H,) of the office hours, 08:00-18:00 local standard time."""
         return (self.hour >= OFFICE_HOURS[0]) & (self.hour < OFFICE_HOURS[1])
 
-    def epoch_s(self):
+    def epoch_s(self) -> FloatArray:
         """(H,) UTC Unix time of each record's middle, in the project's reference year [s]."""
         from flectofold_model.environment.weather import REFERENCE_YEAR
         dates = np.array([f'{REFERENCE_YEAR}-{m:02d}-{d:02d}' for m, d in
@@ -377,10 +394,10 @@ class SkyYear:
         return dates.astype(np.int64) + (self.hour - self.utc_offset_h) * 3600.0
 
 
-_WEATHER = {}
+_WEATHER: dict[str, SkyYear] = {}
 
 
-def read_skies(epw):
+def read_skies(epw: PathLike) -> SkyYear:
     """Sky and sun (:class:`SkyYear`) of every hour of ``epw``, cached per file.
 
     ``epw2wea``, then ``gendaymtx -m 1 -O0`` (visible radiance of the Perez sky of each
@@ -421,7 +438,7 @@ def read_skies(epw):
     return weather
 
 
-def _sky_matrix(wea, options, environment):
+def _sky_matrix(wea: str, options: Sequence[str], environment: Mapping[str, str]) -> FloatArray:
     result = subprocess.run(['gendaymtx', '-m', '1', '-O0', '-of', *options, wea],
                             capture_output=True, check=True, env=environment)
     header, _, data = result.stdout.partition(b'\n\n')
@@ -432,7 +449,8 @@ def _sky_matrix(wea, options, environment):
     return values.reshape(rows, columns, 3)
 
 
-def sun_coefficients(scene, sensors, directions, processes=2):
+def sun_coefficients(scene: str, sensors: npt.ArrayLike, directions: npt.ArrayLike,
+                     processes: int = 2) -> FloatArray:
     """Direct sun factor (N, D) of each sensor for suns in ``directions`` (D, 3) [-].
 
     One Radiance ``light`` source of :data:`SUN_DIAMETER_DEG` and unit radiance per
@@ -474,14 +492,15 @@ def sun_coefficients(scene, sensors, directions, processes=2):
     return factor
 
 
-def illuminance(coefficients, sky):
+def illuminance(coefficients: Union[DaylightCoefficients, FloatArray],
+                sky: FloatArray) -> FloatArray:
     """Illuminance [lx] (N, H) of coefficients (N, P, 3) under sky vectors (P, H, 3)."""
-    values = getattr(coefficients, 'values', coefficients)
+    values = cast(FloatArray, getattr(coefficients, 'values', coefficients))
     rgb = np.einsum('npc,phc->nhc', values, sky)
     return LUMINOUS_EFFICACY * rgb @ RGB_WEIGHTS
 
 
-def closure_weights(states, closure_per_hour):
+def closure_weights(states: Sequence[float], closure_per_hour: npt.ArrayLike) -> FloatArray:
     """Weights (H, S) of the computed closure states for each hour's closure.
 
     Linear between the two nearest states; a closure outside their range takes the nearest.
@@ -504,7 +523,8 @@ def closure_weights(states, closure_per_hour):
     return weights
 
 
-def hourly_weights(states, step_of_year, closure, steps_per_hour=6, hours=8760):
+def hourly_weights(states: Sequence[float], step_of_year: npt.ArrayLike, closure: npt.ArrayLike,
+                   steps_per_hour: int = 6, hours: int = 8760) -> FloatArray:
     """Mean state weights (hours, S) over each hour's steps; NaN rows for hours without any.
 
     ``step_of_year`` (T,) numbers the building simulation's steps from the first of
@@ -532,7 +552,8 @@ def hourly_weights(states, step_of_year, closure, steps_per_hour=6, hours=8760):
 FINE_SAMPLES = 65536
 
 
-def _with(params, bounces=None, samples=None):
+def _with(params: Sequence[str], bounces: Optional[int] = None,
+          samples: Optional[int] = None) -> tuple[str, ...]:
     """``params`` with ``-ab bounces`` and at least ``samples`` ambient divisions."""
     params = list(params)
     for flag, value in (('-ab', bounces), ('-ad', samples)):
@@ -546,7 +567,7 @@ def _with(params, bounces=None, samples=None):
     return tuple(params)
 
 
-def eye_sensor(room, distance_m=2.0, height_m=1.2):
+def eye_sensor(room: 'Room', distance_m: float = 2.0, height_m: float = 1.2) -> FloatArray:
     """Return the glare view (1, 6): seated eye height, ``distance_m`` from the window, facing it.
 
     Mid-width of the room, looking horizontally at the window (the worst case of a desk
@@ -558,7 +579,7 @@ def eye_sensor(room, distance_m=2.0, height_m=1.2):
     return np.concatenate([point, direction])[None, :]
 
 
-def simplified_dgp(vertical_illuminance_lx):
+def simplified_dgp(vertical_illuminance_lx: npt.ArrayLike) -> FloatArray:
     """Simplified daylight glare probability ``DGPs = 6.22e-5 Ev + 0.184`` [-], at most 1.
 
     Wienold (2007) [#]_; ``Ev`` the vertical illuminance at the eye [lx]. Valid without the
@@ -587,11 +608,11 @@ class DaylightYear:
     """(H,) vertical illuminance at the eye of :func:`eye_sensor` [lx]."""
     sun_in_view: np.ndarray
     """(H,) bool: the sun's disc is seen from the eye (direct illuminance above 1 lx)."""
-    grid_shape: tuple = None
+    grid_shape: Optional[tuple] = None
     """Rows (from the window back) and columns of the work-plane sensors."""
 
     @property
-    def dgp(self):
+    def dgp(self) -> FloatArray:
         """(H,) simplified daylight glare probability at the eye [-] (:func:`simplified_dgp`)."""
         return simplified_dgp(self.eye_lx)
 
@@ -630,8 +651,10 @@ class DaylightModel:
        Radiance", LBNL (2013).
     """
 
-    def __init__(self, room, facade=None, states=None, spacing_m=0.6, params=MATRIX_PARAMS,
-                 processes=2, progress=None):
+    def __init__(self, room: 'Room', facade: Optional['Facade'] = None,
+                 states: Optional[Sequence[float]] = None, spacing_m: float = 0.6,
+                 params: Sequence[str] = MATRIX_PARAMS, processes: int = 2,
+                 progress: Optional[Callable[[str], None]] = None) -> None:
         self.room = room
         self.facade = facade
         if facade is None:
@@ -648,10 +671,10 @@ class DaylightModel:
         self.params = tuple(params)
         self.processes = processes
         self.say = progress or (lambda text: None)
-        self._years = {}
-        self._scenes = {}
+        self._years: dict[tuple[int, float], tuple[FloatArray, FloatArray]] = {}
+        self._scenes: dict[tuple[float, bool], str] = {}
 
-    def scene(self, state, black=False):
+    def scene(self, state: float, black: bool = False) -> str:
         """Radiance scene text at closure ``state`` (opaque surfaces black if ``black``)."""
         key = (state, black)
         if key not in self._scenes:
@@ -661,7 +684,7 @@ class DaylightModel:
             self._scenes[key] = radiance_scene(self.room, triangles, reflectances=reflectances)
         return self._scenes[key]
 
-    def state_year(self, weather, state):
+    def state_year(self, weather: SkyYear, state: float) -> tuple[FloatArray, FloatArray]:
         """(E, E_sun) of every office hour at closure ``state``: (H, N + 1) each [lx].
 
         The last column is the eye's vertical illuminance.
@@ -694,7 +717,7 @@ class DaylightModel:
         self._years[key] = result
         return result
 
-    def year(self, weather, weights=None):
+    def year(self, weather: SkyYear, weights: Optional[npt.ArrayLike] = None) -> DaylightYear:
         """:class:`DaylightYear` of the office hours under hourly state ``weights``.
 
         ``weights`` (8760, S) as :func:`hourly_weights` gives (rows of NaN: hours outside
@@ -735,7 +758,7 @@ class CandidateDaylight:
     mix of the two nearest.
     """
 
-    def __init__(self, model, skies, candidates):
+    def __init__(self, model: DaylightModel, skies: SkyYear, candidates: npt.ArrayLike) -> None:
         self.model = model
         self.skies = skies
         weights = closure_weights(model.states, candidates)
@@ -755,7 +778,7 @@ class CandidateDaylight:
         """(office hours, K) 1 where the eye's DGP reaches :data:`GLARE_DGP`."""
         self.start_s = float(skies.epoch_s()[0] - 1800.0)
 
-    def __call__(self, start_s):
+    def __call__(self, start_s: float) -> tuple[FloatArray, FloatArray]:
         """Return ``(daylit, glare)`` (K,) for the hour holding ``start_s`` [s, UTC]."""
         hour = int(math.floor((start_s - self.start_s) / 3600.0))
         row = self.row_of_hour[hour] if 0 <= hour < self.row_of_hour.size else -1
@@ -793,7 +816,7 @@ class DaylightFigures:
     """Office hours with the sun's disc seen from the eye."""
     autonomy_by_sensor: np.ndarray
     """(N,) share of the hours each sensor has 300 lx or more [-] (the sDA map)."""
-    grid_shape: tuple
+    grid_shape: Optional[tuple]
     """Rows (from the window back) and columns of those sensors."""
     hours: np.ndarray
     """(H,) hour of the year of each office hour kept."""
@@ -801,7 +824,7 @@ class DaylightFigures:
     """(H,) DGP at the eye each office hour [-]."""
 
 
-def daylight_figures(year):
+def daylight_figures(year: DaylightYear) -> DaylightFigures:
     """Reduce a :class:`DaylightYear` to its :class:`DaylightFigures`."""
     lux = year.illuminance_lx
     dgp = year.dgp
@@ -819,7 +842,8 @@ def daylight_figures(year):
         hours=year.hours, dgp=dgp)
 
 
-def spatial_daylight_autonomy(illuminance_lx, threshold_lx=300.0, time_fraction=0.5):
+def spatial_daylight_autonomy(illuminance_lx: npt.ArrayLike, threshold_lx: float = 300.0,
+                              time_fraction: float = 0.5) -> float:
     """Return sDA (0-1): sensors at ``threshold_lx`` or more in ``time_fraction`` of hours.
 
     ``illuminance_lx`` is (H hours, N sensors). IES LM-83-12: sDA300/50%.
@@ -829,7 +853,8 @@ def spatial_daylight_autonomy(illuminance_lx, threshold_lx=300.0, time_fraction=
     return float((met >= time_fraction).mean())
 
 
-def useful_daylight(illuminance_lx, low_lx=100.0, high_lx=2000.0):
+def useful_daylight(illuminance_lx: npt.ArrayLike, low_lx: float = 100.0,
+                    high_lx: float = 2000.0) -> float:
     """Return UDI (0-1), the mean over sensors of the share of hours with ``low <= E <= high`` lx.
 
     The 'fell short' and 'exceeded' shares are those of ``E < low`` and ``E > high`` (Nabil &
@@ -839,7 +864,8 @@ def useful_daylight(illuminance_lx, low_lx=100.0, high_lx=2000.0):
     return float(((values >= low_lx) & (values <= high_lx)).mean())
 
 
-def annual_sunlight_exposure(direct_illuminance_lx, threshold_lx=1000.0, hours=250):
+def annual_sunlight_exposure(direct_illuminance_lx: npt.ArrayLike, threshold_lx: float = 1000.0,
+                             hours: int = 250) -> float:
     """Return ASE (0-1): sensors with direct sun above ``threshold_lx`` over ``hours`` hours.
 
     ``direct_illuminance_lx`` (H, N) is the direct sun alone (IES LM-83-12: ``-ab 0``, with
@@ -849,7 +875,8 @@ def annual_sunlight_exposure(direct_illuminance_lx, threshold_lx=1000.0, hours=2
     return float(((values > threshold_lx).sum(axis=0) > hours).mean())
 
 
-def point_illuminance(scene, sensors, weather, record, params=MATRIX_PARAMS, processes=2):
+def point_illuminance(scene: str, sensors: npt.ArrayLike, weather: SkyYear, record: int,
+                      params: Sequence[str] = MATRIX_PARAMS, processes: int = 2) -> FloatArray:
     """Illuminance [lx] (N,) by ``rtrace -I`` under the sky and sun of one weather record.
 
     :func:`gendaylit_sky` (the sun at its exact position), traced with the same ``params``
@@ -865,7 +892,7 @@ def point_illuminance(scene, sensors, weather, record, params=MATRIX_PARAMS, pro
     return LUMINOUS_EFFICACY * rgb @ RGB_WEIGHTS
 
 
-def gendaylit_sky(weather, record):
+def gendaylit_sky(weather: SkyYear, record: int) -> str:
     """Radiance text of the Perez sky and sun of one record (``gendaylit -W``), with glows.
 
     ``gendaylit month day hour -a lat -o lon -m meridian -W dni dhi -O 0`` (Radiance
@@ -888,7 +915,9 @@ def gendaylit_sky(weather, record):
 IMAGE_PARAMS = ('-ab', '3', '-ad', '2048', '-as', '512', '-aa', '0.15', '-ar', '128')
 
 
-def evalglare_at(scene, eye, weather, record, resolution=300, params=IMAGE_PARAMS):
+def evalglare_at(scene: str, eye: npt.ArrayLike, weather: SkyYear, record: int,
+                 resolution: int = 300,
+                 params: Sequence[str] = IMAGE_PARAMS) -> tuple[float, float]:
     """DGP and vertical illuminance [lx] by ``evalglare`` at one record, an independent check.
 
     An angular fisheye (``-vta -vh 180 -vv 180``) rendered by ``rpict`` from ``eye`` (1, 6)
@@ -914,7 +943,7 @@ def evalglare_at(scene, eye, weather, record, resolution=300, params=IMAGE_PARAM
     return _evalglare_output(result.stdout)
 
 
-def _evalglare_output(text):
+def _evalglare_output(text: str) -> tuple[float, float]:
     """(dgp, ev) from ``evalglare -d`` output: its ``dgp,av_lum,E_v,...`` header and line."""
     lines = text.splitlines()
     for index, line in enumerate(lines):

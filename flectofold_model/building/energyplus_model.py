@@ -51,8 +51,11 @@ import math
 import os
 import sqlite3
 import time
+from typing import Any, Callable, Iterable, Mapping, Optional, Sequence, Union
 
 import numpy as np
+
+from flectofold_model._validate import FloatArray, PathLike
 
 ZONE = 'Office'
 WINDOW = 'Office Window'
@@ -65,6 +68,12 @@ GROUND_SCHEDULE = 'FacadeGroundReflectance'
 GROUND_ALBEDO = 0.2
 TIMESTEPS_PER_HOUR = 6
 DAYS_PER_YEAR = 365
+#: ((begin month, day), (end month, day)) of a run, inclusive.
+RunPeriod = tuple[tuple[int, int], tuple[int, int]]
+#: A callback ``callback(api, state)`` of EnergyPlus's runtime API (its API object, the state).
+Callback = Callable[[Any, Any], None]
+#: A point (x, y, z) [m].
+_Point = tuple[float, float, float]
 
 #: Output variables: (name, key, reporting frequency).
 OUTPUT_VARIABLES = (
@@ -109,7 +118,7 @@ class Room:
     illuminance_setpoint_lx: float = 500.0
     workplane_height_m: float = 0.8
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         for name in ('width_m', 'depth_m', 'height_m', 'glazing_u_w_m2k'):
             if not getattr(self, name) > 0.0:
                 raise ValueError(f'{name} must be positive, got {getattr(self, name)}')
@@ -134,12 +143,12 @@ class Room:
                              f'{self.workplane_height_m}')
 
     @property
-    def window_width_m(self):
+    def window_width_m(self) -> float:
         """Width of the centred window [m]."""
         return self.width_m * math.sqrt(self.window_to_wall)
 
     @property
-    def window_height_m(self):
+    def window_height_m(self) -> float:
         """Height of the centred window [m]."""
         return self.height_m * math.sqrt(self.window_to_wall)
 
@@ -164,32 +173,32 @@ class RunFigures:
     """``cooling``, ``heating``, ``lighting``: (12,) energy of each calendar month [kWh]."""
 
 
-def _rotated(points, azimuth_deg):
+def _rotated(points: Iterable[_Point], azimuth_deg: float) -> list[_Point]:
     """World coordinates of room-frame points; the room frame's facade faces -y (south)."""
     phi = math.radians(azimuth_deg - 180.0)
     c, s = math.cos(phi), math.sin(phi)
     return [(x * c + y * s, -x * s + y * c, z) for x, y, z in points]
 
 
-def _vertices(points, azimuth_deg):
+def _vertices(points: Iterable[_Point], azimuth_deg: float) -> list[dict[str, float]]:
     return [{'vertex_x_coordinate': round(x, 6), 'vertex_y_coordinate': round(y, 6),
              'vertex_z_coordinate': round(z, 6)} for x, y, z in _rotated(points, azimuth_deg)]
 
 
-def _compact(values, limits='Fraction'):
+def _compact(values: Sequence[float], limits: str = 'Fraction') -> dict[str, Any]:
     """Build a ``Schedule:Compact`` from one value per time step of a year, runs merged."""
     per_day = TIMESTEPS_PER_HOUR * 24
     days = []
     for day in range(DAYS_PER_YEAR):
         steps = values[day * per_day:(day + 1) * per_day]
-        runs = []
+        runs: list[list[Any]] = []
         for index, value in enumerate(steps):
             if runs and runs[-1][1] == value:
                 runs[-1][0] = index + 1
             else:
                 runs.append([index + 1, value])
         days.append(tuple((end, value) for end, value in runs))
-    data = []
+    data: list[Union[str, float]] = []
     for day, profile in enumerate(days):
         if day + 1 < DAYS_PER_YEAR and days[day + 1] == profile:
             continue
@@ -201,7 +210,7 @@ def _compact(values, limits='Fraction'):
     return {'schedule_type_limits_name': limits, 'data': [{'field': f} for f in data]}
 
 
-def timestep_values(values):
+def timestep_values(values: Iterable[float]) -> list[float]:
     """Return a year at the model time step from 8760 hourly or 52560 per-step values."""
     values = [float(v) for v in values]
     if len(values) == DAYS_PER_YEAR * 24:
@@ -215,22 +224,24 @@ def timestep_values(values):
     return values
 
 
-def _day_schedule(on, off='0.0'):
+def _day_schedule(on: Union[str, float], off: Union[str, float] = '0.0') -> dict[str, Any]:
     return {'schedule_type_limits_name': 'Fraction', 'data': [{'field': f} for f in (
         'Through: 12/31', 'For: Weekdays', 'Until: 08:00', float(off), 'Until: 18:00',
         float(on), 'Until: 24:00', float(off), 'For: AllOtherDays', 'Until: 24:00',
         float(off))]}
 
 
-def _constant(value, limits='Any Number'):
+def _constant(value: float, limits: str = 'Any Number') -> dict[str, Any]:
     return {'schedule_type_limits_name': limits, 'data': [{'field': f} for f in (
         'Through: 12/31', 'For: AllDays', 'Until: 24:00', float(value))]}
 
 
-def shoebox_epjson(room=Room(), shade_schedule='FacadeTransmittance', *, shade=True,
-                   static_schedule_values=None, run_period=((1, 13), (1, 19)),
-                   sky_diffuse='SimpleSkyDiffuseModeling', shade_offset_m=0.3,
-                   shade_margin_m=0.0, static_ground_values=None):
+def shoebox_epjson(room: Room = Room(), shade_schedule: str = 'FacadeTransmittance', *,
+                   shade: bool = True, static_schedule_values: Optional[Iterable[float]] = None,
+                   run_period: RunPeriod = ((1, 13), (1, 19)),
+                   sky_diffuse: str = 'SimpleSkyDiffuseModeling', shade_offset_m: float = 0.3,
+                   shade_margin_m: float = 0.0,
+                   static_ground_values: Optional[Iterable[float]] = None) -> dict[str, Any]:
     """Return the epJSON document (a dict) of ``room`` behind a facade with a schedule.
 
     ``shade_schedule`` names the facade's ``Schedule:Compact`` transmittance schedule: 1.0
@@ -251,7 +262,8 @@ def shoebox_epjson(room=Room(), shade_schedule='FacadeTransmittance', *, shade=T
     x0, z0 = (w - ww) / 2.0, (h - wh) / 2.0
     (begin_month, begin_day), (end_month, end_day) = run_period
 
-    def surface(kind, construction, boundary, points):
+    def surface(kind: str, construction: str, boundary: str,
+                points: Sequence[_Point]) -> dict[str, Any]:
         outdoors = boundary == 'Outdoors'
         return {'surface_type': kind, 'construction_name': construction, 'zone_name': ZONE,
                 'outside_boundary_condition': boundary,
@@ -259,6 +271,7 @@ def shoebox_epjson(room=Room(), shade_schedule='FacadeTransmittance', *, shade=T
                 'wind_exposure': 'WindExposed' if outdoors else 'NoWind',
                 'number_of_vertices': len(points), 'vertices': _vertices(points, a)}
 
+    window: dict[str, Any]
     window = {'surface_type': 'Window', 'construction_name': 'Double Glazing',
               'building_surface_name': FACADE_WALL, 'number_of_vertices': 4}
     corners = ((x0, 0.0, z0 + wh), (x0, 0.0, z0), (x0 + ww, 0.0, z0), (x0 + ww, 0.0, z0 + wh))
@@ -267,7 +280,7 @@ def shoebox_epjson(room=Room(), shade_schedule='FacadeTransmittance', *, shade=T
         window[f'vertex_{index}_y_coordinate'] = round(y, 6)
         window[f'vertex_{index}_z_coordinate'] = round(z, 6)
 
-    doc = {
+    doc: dict[str, Any] = {
         'Version': {'Version 1': {'version_identifier': '25.2'}},
         'SimulationControl': {'SimulationControl 1': {
             'do_zone_sizing_calculation': 'No', 'do_system_sizing_calculation': 'No',
@@ -430,7 +443,8 @@ def shoebox_epjson(room=Room(), shade_schedule='FacadeTransmittance', *, shade=T
     return doc
 
 
-def schedule_actuator(values, schedule_name='FacadeTransmittance', during_warmup=True):
+def schedule_actuator(values: Iterable[float], schedule_name: str = 'FacadeTransmittance',
+                      during_warmup: bool = True) -> Callback:
     """Make a callback that sets ``schedule_name`` every zone time step from a year's values.
 
     ``values`` are as for :func:`shoebox_epjson`'s ``static_schedule_values``: the value of the
@@ -441,18 +455,18 @@ def schedule_actuator(values, schedule_name='FacadeTransmittance', during_warmup
     """
     series = timestep_values(values)
     per_day = TIMESTEPS_PER_HOUR * 24
-    handle = [None]
+    handle: list[Optional[int]] = [None]
 
-    def actuate(api, state):
+    def actuate(api: Any, state: Any) -> None:
         exchange = api.exchange
         if not exchange.api_data_fully_ready(state):
             return
         if not during_warmup and exchange.warmup_flag(state):
             return
         if handle[0] is None:
-            handle[0] = exchange.get_actuator_handle(state, 'Schedule:Compact',
-                                                     'Schedule Value', schedule_name)
-            if handle[0] < 0:
+            handle[0] = found = exchange.get_actuator_handle(state, 'Schedule:Compact',
+                                                             'Schedule Value', schedule_name)
+            if found < 0:
                 raise RuntimeError(f'no Schedule:Compact actuator named {schedule_name!r}')
         day = (exchange.day_of_year(state) - 1) % DAYS_PER_YEAR
         step = exchange.hour(state) * TIMESTEPS_PER_HOUR + exchange.zone_time_step_number(state)
@@ -461,7 +475,8 @@ def schedule_actuator(values, schedule_name='FacadeTransmittance', during_warmup
     return actuate
 
 
-def _sum(cursor, name, key=None, frequency=None, aggregate='SUM'):
+def _sum(cursor: sqlite3.Cursor, name: str, key: Optional[str] = None,
+         frequency: Optional[str] = None, aggregate: str = 'SUM') -> tuple[Any, int]:
     query = (f'SELECT {aggregate}(d.Value), COUNT(d.Value) FROM ReportData d '
              'JOIN ReportDataDictionary k ON d.ReportDataDictionaryIndex = '
              'k.ReportDataDictionaryIndex JOIN Time t ON d.TimeIndex = t.TimeIndex '
@@ -479,7 +494,7 @@ def _sum(cursor, name, key=None, frequency=None, aggregate='SUM'):
     return value, count
 
 
-def read_figures(sql_path, elapsed_s=float('nan')):
+def read_figures(sql_path: PathLike, elapsed_s: float = float('nan')) -> RunFigures:
     """Read the :class:`RunFigures` of a finished run from its ``eplusout.sql``."""
     joules_per_kwh = 3.6e6
     with sqlite3.connect(sql_path) as connection:
@@ -508,7 +523,7 @@ def read_figures(sql_path, elapsed_s=float('nan')):
                       peak_cooling_w=peak, elapsed_s=elapsed_s, monthly_kwh=monthly)
 
 
-def _monthly(cursor, name, key):
+def _monthly(cursor: sqlite3.Cursor, name: str, key: str) -> FloatArray:
     """(12,) sum of ``name`` (``key``) per calendar month, warm-up excluded [output units]."""
     rows = cursor.execute(
         'SELECT t.Month, SUM(d.Value) FROM ReportData d JOIN ReportDataDictionary k ON '
@@ -521,7 +536,8 @@ def _monthly(cursor, name, key):
     return monthly
 
 
-def run(document, epw, outdir, callback=None, name='shoebox.epJSON'):
+def run(document: Mapping[str, Any], epw: PathLike, outdir: PathLike,
+        callback: Optional[Callback] = None, name: str = 'shoebox.epJSON') -> RunFigures:
     """Write ``document`` to ``outdir``, simulate it with ``epw`` and return its figures.
 
     Each run has its own EnergyPlus state. ``callback(api, state)``, if given, is called at

@@ -26,13 +26,16 @@ shading is the project's own; the simulation's own sun is not used.
 
 import dataclasses
 import math
+from typing import Callable, cast, Mapping, Optional, Sequence
 
 import numpy as np
 
+from flectofold_model._validate import FloatArray
 from flectofold_model.building.facade_optics import (beam_transmittance, diffuse_transmittance,
                                                      effective_transmittance)
 from flectofold_model.environment.ephemeris import SunEphemeris
 from flectofold_model.environment.sun import Site
+from flectofold_model.facade.description import Facade
 from flectofold_model.facade.footprint import footprint_weights, representative_panel
 from flectofold_model.scheduling.facade_schedule import FacadeSchedule
 from flectofold_model.scheduling.objective import RoomAware
@@ -48,6 +51,8 @@ _MOVING = (Reason.RATE_LIMITED, Reason.WAITING_FOR_AIR)
 #: The room-aware objective's prices of daylight and glare when the room's daylight is known
 #: [W/m2] (msg_docs/building.md: how they were chosen).
 ROOM_PRICES = {'daylight_value_w_m2': 60.0, 'glare_value_w_m2': 300.0}
+#: ``daylight(start_s) -> (daylit, glare)`` of the room at the candidate closures.
+RoomDaylight = Callable[[float], tuple[FloatArray, FloatArray]]
 
 
 @dataclasses.dataclass
@@ -95,9 +100,11 @@ class FacadeInTheLoop:
         :data:`ROOM_PRICES`).
     """
 
-    def __init__(self, facade, strategy, station, start_s, table=None,
-                 window_azimuth_deg=180.0, threshold_w_m2=(250.0, 150.0), gust_factor=1.0,
-                 daylight=None, room_prices=None):
+    def __init__(self, facade: Facade, strategy: str, station: Site, start_s: float,
+                 table: Optional[ShadingTable] = None, window_azimuth_deg: float = 180.0,
+                 threshold_w_m2: tuple[float, float] = (250.0, 150.0), gust_factor: float = 1.0,
+                 daylight: Optional[RoomDaylight] = None,
+                 room_prices: Optional[Mapping[str, float]] = None) -> None:
         if strategy not in STRATEGIES:
             raise ValueError(f'strategy must be one of {", ".join(STRATEGIES)}, got '
                              f'{strategy!r}')
@@ -118,25 +125,27 @@ class FacadeInTheLoop:
         self.gust_factor = float(gust_factor)
         self.period_s = float(self.facade.control.get('period_s', 60.0))
         self._shading = np.zeros(len(self.facade), bool)  # the threshold rule's state
-        self.schedule = None
+        self.schedule: Optional[FacadeSchedule] = None
         if strategy not in ('always open', 'always closed'):
             self.schedule = FacadeSchedule(self.facade, start_s=start_s, table=self.table,
                                            wind_timeout_s=3600.0)
-        self.objective = None
+        self.objective: Optional[RoomAware] = None
         self.daylight = daylight
         if strategy == 'room-aware':
-            settings = self.schedule.predictive.parameters
+            schedule = cast(FacadeSchedule, self.schedule)  # every strategy but always open/closed
+            settings = schedule.predictive.parameters
             prices = dict(ROOM_PRICES, **(room_prices or {})) if daylight is not None else {}
             self.objective = RoomAware(settings.view_value_w_m2, self.diffuse, **prices)
-            self.schedule.predictive.objective = self.objective
+            schedule.predictive.objective = self.objective
         static = {'always open': 0.0, 'always closed': 1.0}.get(strategy)
         self.closure = np.full(len(self.facade), static if static is not None else
                                self.facade.control.get('default_closure', 0.0))
         self.moves = np.zeros(len(self.facade))
         self.air_nl = 0.0
-        self._ephemeris = None
+        self._ephemeris: Optional[SunEphemeris] = None
 
-    def step(self, start_s, step_s, dni_w_m2, dhi_w_m2, wind_m_s, room_w=(0.0, 0.0)):
+    def step(self, start_s: float, step_s: float, dni_w_m2: float, dhi_w_m2: float,
+             wind_m_s: float, room_w: Sequence[float] = (0.0, 0.0)) -> StepResult:
         """Decide over the step ``[start_s, start_s + step_s)`` [s]; return a StepResult.
 
         ``dni_w_m2``, ``dhi_w_m2`` the step's direct normal and diffuse horizontal
@@ -167,7 +176,7 @@ class FacadeInTheLoop:
                                                                 on_window_diffuse),
                           beam=beam, diffuse=diffuse, closure=self.closure.copy(), sun_up=up)
 
-    def _desired(self, sun, dni):
+    def _desired(self, sun: FloatArray, dni: float) -> FloatArray:
         """Return the threshold rule's desired closures (controllers decide in the schedule)."""
         in_panels = self.facade.sun_in_panel_frames(sun)
         lit = in_panels[:, 2] > SUNLIT_MIN_SZ
@@ -176,8 +185,10 @@ class FacadeInTheLoop:
                                  np.where(direct < self.off_w_m2, False, self._shading))
         return np.where(self._shading, 0.0, 1.0)
 
-    def _schedule(self, start_s, step_s, sun, dni, wind):
-        scheduler = self.schedule.scheduler
+    def _schedule(self, start_s: float, step_s: float, sun: Optional[FloatArray], dni: float,
+                  wind: float) -> None:
+        schedule = cast(FacadeSchedule, self.schedule)  # called only with one
+        scheduler = schedule.scheduler
         end = start_s + step_s
         now = start_s
         if self.strategy == 'threshold':
@@ -186,7 +197,7 @@ class FacadeInTheLoop:
             call = (lambda t, first: scheduler.step(t, desired, wind_m_s=wind if first
                                                     else None))
         else:
-            call = (lambda t, first: self.schedule.step(
+            call = (lambda t, first: schedule.step(
                 t, sun, dni_w_m2=dni, wind_m_s=wind if first else None))
         previous = scheduler.commanded_closure.copy()
         moving = np.zeros(previous.size, bool)

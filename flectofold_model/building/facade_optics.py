@@ -27,15 +27,20 @@ References
    "Transmittance Schedule Name".
 """
 
-import numpy as np
+from typing import Optional
 
-from flectofold_model._validate import real_array
+import numpy as np
+import numpy.typing as npt
+
+from flectofold_model._validate import FloatArray, real_array
+from flectofold_model.facade.description import Facade
+from flectofold_model.shading.table import ShadingTable
 
 #: Directions of the hemisphere sample for the diffuse transmittance.
 DIFFUSE_SAMPLES = 4096
 
 
-def cosine_directions(count=DIFFUSE_SAMPLES):
+def cosine_directions(count: int = DIFFUSE_SAMPLES) -> FloatArray:
     """Return unit directions (count, 3) on the front hemisphere (z > 0), cosine-weighted.
 
     A Fibonacci lattice on the unit disc lifted to the hemisphere (Malley's method): the
@@ -48,13 +53,14 @@ def cosine_directions(count=DIFFUSE_SAMPLES):
     return np.stack([x, y, np.sqrt(np.maximum(1.0 - x * x - y * y, 0.0))], axis=-1)
 
 
-def diffuse_transmittance(table, count=DIFFUSE_SAMPLES):
+def diffuse_transmittance(table: ShadingTable, count: int = DIFFUSE_SAMPLES) -> FloatArray:
     """Isotropic-sky diffuse transmittance (C,) of each candidate closure of ``table``."""
     blocked = table.blocked_fractions(cosine_directions(count))
     return 1.0 - blocked.mean(axis=0)
 
 
-def beam_transmittance(facade, table, closure, sun_enu, weights=None):
+def beam_transmittance(facade: Facade, table: ShadingTable, closure: npt.ArrayLike,
+                       sun_enu: npt.ArrayLike, weights: Optional[FloatArray] = None) -> float:
     """Footprint-weighted beam transmittance of the facade at ``closure`` (N,) [-].
 
     ``sun_enu`` (3,) the unit vector toward the sun; ``weights`` (N,) the panels' footprint
@@ -70,7 +76,7 @@ def beam_transmittance(facade, table, closure, sun_enu, weights=None):
     return float(passing @ weights)
 
 
-def interpolated(closures, values, closure):
+def interpolated(closures: FloatArray, values: FloatArray, closure: FloatArray) -> FloatArray:
     """Values (N,) of rows (N, C) over candidate ``closures`` (C,) at ``closure`` (N,), linear."""
     position = np.interp(closure, closures, np.arange(closures.size))
     lower = np.clip(np.floor(position).astype(int), 0, closures.size - 2)
@@ -79,7 +85,8 @@ def interpolated(closures, values, closure):
     return values[rows, lower] + fraction * (values[rows, lower + 1] - values[rows, lower])
 
 
-def effective_transmittance(beam, diffuse, beam_w_m2, diffuse_w_m2):
+def effective_transmittance(beam: float, diffuse: float, beam_w_m2: float,
+                            diffuse_w_m2: float) -> float:
     """One transmittance that passes the right solar energy: the irradiance-weighted mix.
 
     ``beam``, ``diffuse`` transmittances [-]; ``beam_w_m2``, ``diffuse_w_m2`` the beam and

@@ -13,11 +13,13 @@ References
 """
 
 import numpy as np
+import numpy.typing as npt
 
-from flectofold_model._validate import real_array, real_scalar
+from flectofold_model._validate import FloatArray, real_array, real_scalar
+from flectofold_model.environment.sun import Site
 
 
-def clear_sky_dni(epochs, site):
+def clear_sky_dni(epochs: npt.ArrayLike, site: Site) -> FloatArray:
     """Clear-sky direct normal irradiance [W/m2] at POSIX times (T,) [s]: pvlib's Ineichen.
 
     With pvlib's bundled Linke turbidity data (monthly climatology, offline).
@@ -35,15 +37,15 @@ class ClearSkyDni:
     ``batch`` instants of the grid are computed per miss, ``keep`` kept at most.
     """
 
-    def __init__(self, site, step_s, batch=96, keep=4096):
+    def __init__(self, site: Site, step_s: float, batch: int = 96, keep: int = 4096) -> None:
         self.site = site
         self.step_s = real_scalar('step_s', step_s)
         if not self.step_s > 0.0:
             raise ValueError(f'step_s must be positive, got {self.step_s:g} s')
         self.batch, self.keep = int(batch), int(keep)
-        self._values = {}
+        self._values: dict[int, float] = {}
 
-    def at(self, epoch_s):
+    def at(self, epoch_s: npt.ArrayLike) -> FloatArray:
         """Clear-sky DNI [W/m2] at POSIX times (T,)."""
         times = np.ravel(real_array('epoch_s', epoch_s))
         position = times / self.step_s

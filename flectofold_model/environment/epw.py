@@ -17,9 +17,12 @@ References
 """
 
 from pathlib import Path
+from typing import Any, Mapping, Union
+
+from flectofold_model._validate import PathLike
 
 
-def tmy3_to_epw(tmy3_path, epw_path):
+def tmy3_to_epw(tmy3_path: PathLike, epw_path: PathLike) -> Path:
     """Write the TMY3 file ``tmy3_path`` as the EPW file ``epw_path``; return its path."""
     import pvlib
     data, meta = pvlib.iotools.read_tmy3(str(tmy3_path), map_variables=False)
@@ -43,9 +46,10 @@ def tmy3_to_epw(tmy3_path, epw_path):
     return Path(epw_path)
 
 
-def _row(year, month, day, hour, record):
-    def get(column):
+def _row(year: int, month: int, day: int, hour: int, record: Mapping[str, Any]) -> str:
+    def get(column: str) -> float:
         return float(record[column])
+    fields: list[Union[int, float, str]]
     fields = [year, month, day, hour, 60, '?9?9?9?9E0?9?9?9?9?9?9?9?9?9?9?9?9?9?9?9*9*9?9?9?9',
               get('Dry-bulb (C)'), get('Dew-point (C)'), get('RHum (%)'),
               get('Pressure (mbar)') * 100.0, get('ETR (W/m^2)'), get('ETRN (W/m^2)'), 9999,
@@ -59,7 +63,7 @@ def _row(year, month, day, hour, record):
     return ','.join(_text(value) for value in fields)
 
 
-def _text(value):
+def _text(value: Union[int, float, str]) -> str:
     if isinstance(value, str):
         return value
     number = float(value)

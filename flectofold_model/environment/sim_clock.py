@@ -31,7 +31,7 @@ class SimulatedClock:
     speedup: float
     """Simulated seconds per wall second [-], in ``(0, 1e5]``."""
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         real_fields(self)
         if not self.end_epoch_s > self.start_epoch_s:
             raise ValueError(
@@ -40,11 +40,11 @@ class SimulatedClock:
         in_range('speedup', np.asarray(self.speedup), 0.0, MAX_SPEEDUP, low_open=True)
 
     @property
-    def wall_duration_s(self):
+    def wall_duration_s(self) -> float:
         """Wall time the simulated span takes, ``(end - start) / speedup`` [s]."""
         return (self.end_epoch_s - self.start_epoch_s) / self.speedup
 
-    def sim_epoch_s(self, wall_elapsed_s):
+    def sim_epoch_s(self, wall_elapsed_s: float) -> float:
         """Return the simulated time after ``wall_elapsed_s`` of wall time [s].
 
         Parameters
@@ -68,7 +68,7 @@ class SimulatedClock:
         elapsed = _elapsed(wall_elapsed_s)
         return min(self.start_epoch_s + self.speedup * elapsed, self.end_epoch_s)
 
-    def finished(self, wall_elapsed_s):
+    def finished(self, wall_elapsed_s: float) -> bool:
         """Return ``True`` once the simulated time has reached ``end_epoch_s``.
 
         Takes the same ``wall_elapsed_s`` [s] as :meth:`sim_epoch_s`.
@@ -76,7 +76,7 @@ class SimulatedClock:
         return self.sim_epoch_s(wall_elapsed_s) >= self.end_epoch_s
 
 
-def _elapsed(wall_elapsed_s):
+def _elapsed(wall_elapsed_s: float) -> float:
     elapsed = real_scalar('wall_elapsed_s', wall_elapsed_s)
     if elapsed < 0.0:
         raise ValueError(f'wall_elapsed_s must be >= 0 s, got {elapsed:g} s')

@@ -28,10 +28,12 @@ import datetime
 import re
 
 import numpy as np
+import numpy.typing as npt
 import pandas as pd
 from pvlib.solarposition import spa_python
 
-from flectofold_model._validate import in_range, real_array, real_fields, real_scalar
+from flectofold_model._validate import (BoolArray, FloatArray, in_range, real_array, real_fields,
+                                        real_scalar)
 
 #: Seconds in a calendar day of a fixed-offset clock (no daylight-saving switch) [s].
 SECONDS_PER_DAY = 86400.0
@@ -66,7 +68,7 @@ class Site:
     """Mean air temperature at the site, for the refraction correction [degC], in
     ``[-100, 100]``; 12 degC, pvlib's default, by default."""
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         real_fields(self)
         in_range('latitude_deg', np.asarray(self.latitude_deg), -90.0, 90.0, ' deg')
         in_range('longitude_deg', np.asarray(self.longitude_deg), -180.0, 180.0, ' deg')
@@ -104,7 +106,7 @@ class SolarPosition:
     """Unit vectors from the site toward the sun in the site's ENU frame, shape ``(T, 3)``;
     built from the apparent elevation [-]."""
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         count = None
         for field in fields(self):
             value = real_array(field.name, getattr(self, field.name))
@@ -118,16 +120,16 @@ class SolarPosition:
                 raise ValueError(f'{field.name} has {value.shape[0]} times, epoch_s has {count}')
             object.__setattr__(self, field.name, value)
 
-    def __len__(self):
+    def __len__(self) -> int:
         return self.epoch_s.shape[0]
 
     @property
-    def above_horizon(self):
+    def above_horizon(self) -> BoolArray:
         """``True`` where the sun's apparent centre is above the horizon (direct sun), ``(T,)``."""
         return self.apparent_elevation_rad > 0.0
 
 
-def solar_position(epoch_s, site, delta_t_s=67.0):
+def solar_position(epoch_s: npt.ArrayLike, site: Site, delta_t_s: float = 67.0) -> SolarPosition:
     """Position of the sun seen from ``site`` at the times ``epoch_s``, by NREL's SPA.
 
     One vectorised call of :func:`pvlib.solarposition.spa_python` for all times.
@@ -177,7 +179,7 @@ def solar_position(epoch_s, site, delta_t_s=67.0):
         enu=_enu(azimuth, elevation))
 
 
-def sun_vector_enu(epoch_s, site, delta_t_s=67.0):
+def sun_vector_enu(epoch_s: npt.ArrayLike, site: Site, delta_t_s: float = 67.0) -> FloatArray:
     """Return the unit vectors toward the sun in the site's ENU frame, shape ``(T, 3)`` [-].
 
     Shorthand for ``solar_position(epoch_s, site, delta_t_s).enu``; see :func:`solar_position`
@@ -186,7 +188,8 @@ def sun_vector_enu(epoch_s, site, delta_t_s=67.0):
     return solar_position(epoch_s, site, delta_t_s).enu
 
 
-def enu_from_azimuth_elevation(azimuth_rad, elevation_rad):
+def enu_from_azimuth_elevation(azimuth_rad: npt.ArrayLike,
+                               elevation_rad: npt.ArrayLike) -> FloatArray:
     """Return the ENU unit vector(s) of a compass azimuth and an elevation.
 
     Parameters
@@ -207,13 +210,13 @@ def enu_from_azimuth_elevation(azimuth_rad, elevation_rad):
     return _enu(*np.broadcast_arrays(azimuth, elevation))
 
 
-def _enu(azimuth, elevation):
+def _enu(azimuth: FloatArray, elevation: FloatArray) -> FloatArray:
     horizontal = np.cos(elevation)
     return np.stack([np.sin(azimuth) * horizontal, np.cos(azimuth) * horizontal,
                      np.sin(elevation)], axis=-1)
 
 
-def angle_of_incidence_rad(sun_enu, normal_enu):
+def angle_of_incidence_rad(sun_enu: npt.ArrayLike, normal_enu: npt.ArrayLike) -> FloatArray:
     """Angle between sun vectors and surface normals [rad], in ``[0, pi]``.
 
     Both inputs are normalised here, so their lengths do not matter (but must not be zero).
@@ -248,7 +251,7 @@ def angle_of_incidence_rad(sun_enu, normal_enu):
     return np.arccos(np.clip(np.matmul(sun, normal.T), -1.0, 1.0))
 
 
-def _unit_vectors(name, value):
+def _unit_vectors(name: str, value: npt.ArrayLike) -> FloatArray:
     vectors = real_array(name, value)
     if vectors.ndim not in (1, 2) or vectors.shape[-1] != 3:
         raise ValueError(f'{name} must have shape (3,) or (K, 3), got {vectors.shape}')
@@ -258,7 +261,7 @@ def _unit_vectors(name, value):
     return vectors / length
 
 
-def _epochs(name, value):
+def _epochs(name: str, value: npt.ArrayLike) -> FloatArray:
     epochs = np.atleast_1d(real_array(name, value))
     if epochs.ndim != 1:
         raise ValueError(f'{name} must be a scalar or a 1-D array, got shape {epochs.shape}')
@@ -269,7 +272,7 @@ def _epochs(name, value):
     return epochs
 
 
-def epoch_from_iso(text):
+def epoch_from_iso(text: str) -> float:
     """POSIX seconds (UTC) of an ISO 8601 timestamp that carries its UTC offset [s].
 
     Parameters
@@ -303,7 +306,7 @@ def epoch_from_iso(text):
     return moment.timestamp()
 
 
-def day_epochs(date_iso, site_utc_offset_h, step_s):
+def day_epochs(date_iso: str, site_utc_offset_h: float, step_s: float) -> FloatArray:
     """POSIX times of one local calendar day, from midnight to the next midnight (exclusive).
 
     The clock keeps a fixed UTC offset, so the day is always 24 h long: give the offset the

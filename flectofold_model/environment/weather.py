@@ -16,13 +16,29 @@ References
 
 from dataclasses import dataclass
 import os
+from typing import Any, Protocol, Union
 
 import numpy as np
+import numpy.typing as npt
+
+from flectofold_model._validate import FloatArray, PathLike
 
 REFERENCE_YEAR = 2001
 MAX_WIND_SPEED_M_S = 100.0
 MAX_IRRADIANCE_W_M2 = 1500.0
 _HALF_HOUR = np.timedelta64(30, 'm')
+#: A UTC time: a numpy datetime64, or ISO 8601 text without an offset as numpy reads it.
+TimeUtc = Union[np.datetime64, str]
+
+
+class Place(Protocol):
+    """Anything with a ``latitude_deg`` and a ``longitude_deg``: a site, a weather station."""
+
+    @property
+    def latitude_deg(self) -> float: ...
+
+    @property
+    def longitude_deg(self) -> float: ...
 
 
 class WeatherError(ValueError):
@@ -46,9 +62,11 @@ class Weather:
     utc_offset_h: float
     source: str
 
-    def between(self, start_utc, end_utc):
+    def between(self, start_utc: TimeUtc, end_utc: TimeUtc) -> 'Weather':
         """Return the rows with ``start_utc <= time_utc <= end_utc`` as a new Weather."""
-        start, end = np.datetime64(start_utc, 'ns'), np.datetime64(end_utc, 'ns')
+        # numpy's stubs take no unit with a datetime64 (numpy itself does)
+        start = np.datetime64(start_utc, 'ns')  # type: ignore[call-overload]
+        end = np.datetime64(end_utc, 'ns')  # type: ignore[call-overload]
         if not start <= end:
             raise WeatherError(f'between: start {start} after end {end}')
         keep = (self.time_utc >= start) & (self.time_utc <= end)
@@ -70,7 +88,7 @@ _RANGES = {'dni': (0, MAX_IRRADIANCE_W_M2), 'dhi': (0, MAX_IRRADIANCE_W_M2),
            'wind_direction': (0, 360), 'temp_air': (-90, 70)}
 
 
-def _detect_format(path):
+def _detect_format(path: str) -> str:
     if not os.path.isfile(path):
         raise WeatherError(f'weather file not found: {path}')
     with open(path, 'r', encoding='latin-1') as f:
@@ -82,7 +100,7 @@ def _detect_format(path):
     raise WeatherError(f'{path}: neither EPW (LOCATION header) nor TMY3 (7-field header)')
 
 
-def _read_frame(path, kind):
+def _read_frame(path: str, kind: str) -> tuple[Any, Any, np.timedelta64]:
     from pvlib import iotools
     try:
         if kind == 'epw':
@@ -98,7 +116,7 @@ def _read_frame(path, kind):
     return data, meta, stamp_shift
 
 
-def _column(data, name, path):
+def _column(data: Any, name: str, path: str) -> FloatArray:
     try:
         values = np.asarray(data[name], dtype=float)
     except (KeyError, ValueError, TypeError) as exc:
@@ -115,7 +133,7 @@ def _column(data, name, path):
     return values
 
 
-def _times_utc(data, stamp_shift):
+def _times_utc(data: Any, stamp_shift: np.timedelta64) -> npt.NDArray[np.datetime64]:
     t = data.index.tz_convert('UTC').tz_localize(None).to_numpy().astype('datetime64[ns]')
     t = t + stamp_shift
     year0 = np.datetime64(f'{REFERENCE_YEAR}-01-01', 'ns')
@@ -125,7 +143,7 @@ def _times_utc(data, stamp_shift):
     return np.where(t < year0, t + span, np.where(t >= year1, t - span, t))
 
 
-def read_weather(path):
+def read_weather(path: PathLike) -> Weather:
     """Read an EPW or TMY3 file (chosen by its first line) into a :class:`Weather`.
 
     Raises :class:`WeatherError` for a missing file, an unknown format, a malformed file,
@@ -136,7 +154,7 @@ def read_weather(path):
     data, meta, shift = _read_frame(path, kind)
     times = _times_utc(data, shift)
     order = np.argsort(times, kind='stable')
-    series = {'time_utc': times[order]}
+    series: dict[str, npt.NDArray[Any]] = {'time_utc': times[order]}
     for field, name in _COLUMNS.items():
         series[field] = _column(data, name, path)[order]
     if np.any(np.diff(series['time_utc']) <= np.timedelta64(0, 'ns')):
@@ -148,12 +166,12 @@ def read_weather(path):
                    source=_source(path, meta))
 
 
-def _source(path, meta):
+def _source(path: str, meta: Any) -> str:
     station = str(meta.get('city', meta.get('Name', ''))).strip('"').strip()
     return f'{os.path.basename(path)} ({station})' if station else os.path.basename(path)
 
 
-def site_distance_deg(site, other):
+def site_distance_deg(site: Place, other: Place) -> float:
     """Great-circle angle between two places with ``latitude_deg``/``longitude_deg`` [deg].
 
     E.g. a facade's :class:`~flectofold_model.environment.Site` and a :class:`Weather`'s
@@ -165,7 +183,7 @@ def site_distance_deg(site, other):
     return float(np.degrees(np.arccos(np.clip(cosine, -1.0, 1.0))))
 
 
-def into_reference_year(times_utc):
+def into_reference_year(times_utc: npt.ArrayLike) -> npt.NDArray[np.datetime64]:
     """Map UTC times into :data:`REFERENCE_YEAR` keeping their offset from their year's start.
 
     Dates after 28 February of a leap year land one day later in the reference year.
@@ -181,7 +199,7 @@ def into_reference_year(times_utc):
 COVERAGE_MARGIN_S = 3600.0
 
 
-def uncovered(weather, start_utc, end_utc):
+def uncovered(weather: Weather, start_utc: TimeUtc, end_utc: TimeUtc) -> str:
     """Say where ``[start_utc, end_utc]`` leaves the stamps of ``weather``; '' if it does not.
 
     Both ends are mapped into the reference year (:func:`into_reference_year`), as
@@ -195,7 +213,8 @@ def uncovered(weather, start_utc, end_utc):
     for moment in (start_utc, end_utc):
         t = into_reference_year(moment)[0]
         if t < first - margin or t > last + margin:
-            outside.append(str(np.datetime_as_string(np.datetime64(moment, 's'))))
+            second = np.datetime64(moment, 's')  # type: ignore[call-overload]  # numpy's stubs
+            outside.append(str(np.datetime_as_string(second)))
     if not outside:
         return ''
     covered = (f'{np.datetime_as_string(first, "m")} .. {np.datetime_as_string(last, "m")} '
@@ -204,7 +223,7 @@ def uncovered(weather, start_utc, end_utc):
             f'which covers {covered}')
 
 
-def weather_at(weather, times_utc):
+def weather_at(weather: Weather, times_utc: npt.ArrayLike) -> dict[str, FloatArray]:
     """Weather at arbitrary UTC times, each mapped by :func:`into_reference_year`.
 
     Irradiance and temperature are linear between mid-hour stamps; wind speed and

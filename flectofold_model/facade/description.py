@@ -29,14 +29,20 @@ import math
 from pathlib import Path
 
 import re
+from typing import Any, Mapping
 
 import numpy as np
+import numpy.typing as npt
 
+from flectofold_model._validate import FloatArray, IntArray, PathLike
 from flectofold_model.environment.sun import Site
 from flectofold_model.facade import surfaces
-from flectofold_model.facade.schema import (build, check, check_mix, check_type, FacadeError,
-                                            need, PANEL_DEFAULTS, PANEL_KEYS, parametric,
-                                            SCHEMA, shown_key, surface_kind)
+from flectofold_model.facade.hexagon_cells import HexagonCells
+from flectofold_model.facade.schema import (build, BuiltPanels, check, check_mix, check_type,
+                                            FacadeError, need, PANEL_DEFAULTS, PANEL_KEYS,
+                                            parametric, SCHEMA, shown_key, surface_kind)
+from flectofold_model.kinematics.hexagon.panel import HexagonPanel
+from flectofold_model.kinematics.kinds import Panel
 from flectofold_model.kinematics.panel import fold_line_sag, PanelGeometry
 from flectofold_model.safe_yaml import load_yaml, read_yaml, short_repr, YAMLInputError
 
@@ -85,11 +91,11 @@ class Facade:
     ``'structural'`` (the structural model of the median panel, quad facades only; see
     :func:`~flectofold_model.structure.facade_map.facade_cushion_map`)."""
 
-    def __len__(self):
+    def __len__(self) -> int:
         return len(self.panels)
 
     @property
-    def facade_to_enu(self):
+    def facade_to_enu(self) -> FloatArray:
         """Rotation (3, 3) from the facade frame to the site's ENU frame."""
         azimuth = math.radians(self.azimuth_deg)
         outward = np.array([math.sin(azimuth), math.cos(azimuth), 0.0])
@@ -97,15 +103,15 @@ class Facade:
         return np.stack([np.cross(up, outward), up, outward], axis=-1)
 
     @property
-    def panel_to_enu(self):
+    def panel_to_enu(self) -> FloatArray:
         """(N, 3, 3) rotations from each panel frame to ENU."""
         return np.einsum('ij,njk->nik', self.facade_to_enu, self.rotation)
 
-    def sun_in_panel_frames(self, sun_enu):
+    def sun_in_panel_frames(self, sun_enu: npt.ArrayLike) -> FloatArray:
         """Sun directions (..., 3) in ENU expressed in every panel frame: (..., N, 3)."""
         return np.einsum('nji,...j->...ni', self.panel_to_enu, np.asarray(sun_enu, dtype=float))
 
-    def report(self):
+    def report(self) -> list[str]:
         """Human-readable lines: surface pre-fold, moulded pre-fold and exclusions."""
         lines = [f'{self.name}: {len(self)} {self.panel_kind} panels built, '
                  f'{len(self.excluded)} left out']
@@ -119,19 +125,19 @@ class Facade:
         return lines
 
 
-def _size(panel):
+def _size(panel: Panel) -> str:
     """Return a panel's size as the report prints it: length x width, or radius and area."""
-    if hasattr(panel, 'circumradius_m'):
+    if isinstance(panel, HexagonPanel):
         return f'hexagon R {panel.circumradius_m:.3f} m ({panel.area_m2:.3f} m2)'
     return f'{panel.length_m:.3f} x {panel.width_m:.3f} m'
 
 
-def embedded_facades():
+def embedded_facades() -> list[str]:
     """Names of the embedded facade descriptions (the stems of ``data/*.yaml``), sorted."""
     return sorted(path.stem for path in DATA_DIRECTORY.glob('*.yaml'))
 
 
-def facade_path(name_or_path):
+def facade_path(name_or_path: PathLike) -> Path:
     """Return the file a facade argument names: an existing file, else an embedded one.
 
     A value that is no existing file but the name of an embedded description
@@ -144,7 +150,7 @@ def facade_path(name_or_path):
     return Path(name_or_path)
 
 
-def load_facade(path=DEFAULT_FACADE):
+def load_facade(path: PathLike = DEFAULT_FACADE) -> Facade:
     """Read, validate and build a facade description from a YAML file or an embedded name.
 
     ``path`` is a YAML file, or the name of an embedded description (see
@@ -181,7 +187,7 @@ def load_facade(path=DEFAULT_FACADE):
     return facade
 
 
-def _check_actuation(facade, path):
+def _check_actuation(facade: Facade, path: PathLike) -> None:
     """Refuse a facade whose panels cannot be actuated like their kind's preset module.
 
     The geometry can be valid and the preset's cushion still not fit (longer or wider than a
@@ -204,7 +210,7 @@ def _check_actuation(facade, path):
                               f'{facade.panel_kind} preset module: {error}') from None
 
 
-def _warn_about_strain(facade):
+def _warn_about_strain(facade: Facade) -> None:
     """Warn (:class:`~.strain.StrainLimitWarning`, once) if panels exceed allowable strains.
 
     One place for both panel kinds: the strain check picks the kind's preset laminates.
@@ -214,7 +220,7 @@ def _warn_about_strain(facade):
                            closure=1.0, stacklevel=3)
 
 
-def surface_quads(path=DEFAULT_FACADE):
+def surface_quads(path: PathLike = DEFAULT_FACADE) -> tuple[FloatArray, IntArray]:
     """Return the quad mesh of a quad facade's surface, one quad per patch, facade frame [m].
 
     The mesh that ``surface: {type: obj}`` reads back to the same patches: for a parametric
@@ -240,7 +246,7 @@ def surface_quads(path=DEFAULT_FACADE):
     return parametric(surface, kind).grid_quads(grid['rows'], grid['columns'])
 
 
-def build_facade(text, base_directory='.'):
+def build_facade(text: str, base_directory: PathLike = '.') -> Facade:
     """Validate and build a facade from YAML text (OBJ paths resolve from base_directory)."""
     try:
         document = load_yaml(text, 'facade description')
@@ -249,7 +255,7 @@ def build_facade(text, base_directory='.'):
     return _build_document(document, Path(base_directory))
 
 
-def _build_document(document, base_directory):
+def _build_document(document: object, base_directory: Path) -> Facade:
     if not isinstance(document, dict):
         raise FacadeError('a facade description is a mapping of sections')
     check(document, SCHEMA, '')
@@ -288,7 +294,7 @@ def _build_document(document, base_directory):
                   panel_kind=kind, cushion_map=cushion_map)
 
 
-def _panel_kind(template):
+def _panel_kind(template: Mapping[Any, Any]) -> str:
     kind = template.get('type', 'quad')
     if kind not in PANEL_KEYS:
         raise FacadeError(f"panel.type: must be 'quad' or 'hexagon', got {short_repr(kind)}")
@@ -300,7 +306,8 @@ def _panel_kind(template):
     return kind
 
 
-def _quad_facade(document, base_directory):
+def _quad_facade(document: Mapping[str, Any],
+                 base_directory: Path) -> tuple[surfaces.Patches, dict[str, Any], BuiltPanels]:
     patches = _patches(document['surface'], document['grid'], base_directory)
     control = _control(document.get('control', {}))
     panels = _panels(patches, document['panel'], document['grid'],
@@ -308,20 +315,22 @@ def _quad_facade(document, base_directory):
     return patches, control, panels
 
 
-def _hexagon_facade(document, base_directory):
+def _hexagon_facade(document: Mapping[str, Any],
+                    base_directory: Path) -> tuple[HexagonCells, dict[str, Any], BuiltPanels]:
     from flectofold_model.facade import hexagon_description
     cells = hexagon_description.cells(document, base_directory)
     control = _control(document.get('control', {}))
     return cells, control, hexagon_description.panels(cells, document)
 
 
-def _check_name(name):
+def _check_name(name: object) -> None:
     if not (isinstance(name, str) and _NAME.fullmatch(name)):
         raise FacadeError(f'name: must be 1 to 64 letters, digits, _ . or - (starting with a '
                           f'letter or digit), got {short_repr(name)}')
 
 
-def _patches(surface, grid, base_directory):
+def _patches(surface: Mapping[Any, Any], grid: Mapping[Any, Any],
+             base_directory: Path) -> surfaces.Patches:
     kind = surface_kind(surface)
     midrib = grid.get('midrib_along', 'v')
     if midrib not in ('u', 'v', 'auto'):
@@ -339,7 +348,7 @@ def _patches(surface, grid, base_directory):
     return shape.tessellate(rows, columns, midrib)
 
 
-def _cushion_map(actuation, kind):
+def _cushion_map(actuation: Mapping[Any, Any], kind: str) -> str:
     choice = actuation.get('cushion_map', 'energy')
     if choice not in CUSHION_MAPS:
         raise FacadeError(f'actuation.cushion_map: must be one of {", ".join(CUSHION_MAPS)}, '
@@ -351,7 +360,7 @@ def _cushion_map(actuation, kind):
     return choice
 
 
-def _control(control):
+def _control(control: Mapping[Any, Any]) -> dict[str, Any]:
     from flectofold_model.scheduling.predictive import CONTROLLERS, PredictiveParameters
     from flectofold_model.scheduling.scheduler import SchedulerParameters
     predictive = {f.name for f in fields(PredictiveParameters)}
@@ -379,7 +388,8 @@ def _control(control):
     return dict(control)
 
 
-def _panels(patches, template, grid, overrides):
+def _panels(patches: surfaces.Patches, template: Mapping[Any, Any], grid: Mapping[Any, Any],
+            overrides: Mapping[Any, Any]) -> BuiltPanels:
     gap = grid.get('gap_m', 0.0)
     if gap < 0:
         raise FacadeError(f'grid.gap_m: must not be negative, got {gap:g} m')
@@ -423,7 +433,8 @@ def _panels(patches, template, grid, overrides):
     return panels, built_ids, np.array(kept, dtype=int), surface_prefold, moulded, excluded
 
 
-def _surface_prefold(patches, index, length, width, settings):
+def _surface_prefold(patches: surfaces.Patches, index: int, length: float, width: float,
+                     settings: Mapping[str, Any]) -> float:
     sag = fold_line_sag(settings['fold_radius_m'], length)
     if not np.isfinite(sag) or sag <= 0:
         raise FacadeError(f'panel.fold_radius_m: {settings["fold_radius_m"]:g} m cannot span a '

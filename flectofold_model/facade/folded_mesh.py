@@ -21,14 +21,20 @@ linear in the apex fold angle, :mod:`~flectofold_model.kinematics.closure_map`):
 """
 
 from dataclasses import dataclass
+from typing import Any, Callable, cast, Optional, Union
 
 import numpy as np
+import numpy.typing as npt
 from scipy.special import ellipe, ellipk
 
+from flectofold_model._validate import FloatArray, FloatOrArray, IntArray
+from flectofold_model.facade.description import Facade
 from flectofold_model.kinematics import elastica
-from flectofold_model.kinematics.hexagon import hexagon_mesh, HexagonBatch, HexagonTopology
-from flectofold_model.kinematics.kinds import fold_model_of, is_topology_for, panel_kind
-from flectofold_model.kinematics.mesh import DEFAULT_TOPOLOGY, fold_mesh, MeshTopology
+from flectofold_model.kinematics.hexagon import (hexagon_mesh, HexagonBatch, HexagonFoldModel,
+                                                 HexagonTopology)
+from flectofold_model.kinematics.kinds import Batch, fold_model_of, is_topology_for, panel_kind
+from flectofold_model.kinematics.mesh import DEFAULT_TOPOLOGY, fold_mesh, FoldMesh, MeshTopology
+from flectofold_model.kinematics.panel import PanelBatch
 from flectofold_model.kinematics.reflection import sag_for_apex_fold_angle
 
 #: Vertices of the whole facade mesh that :func:`facade_topology` stays within for a viewer.
@@ -38,9 +44,11 @@ FACADE_VERTEX_BUDGET = 60_000
 EXPORT_VERTEX_BUDGET = 2_000_000
 #: Vertices of one panel closer than this are one vertex after :func:`weld` [m].
 WELD_TOLERANCE_M = 1e-7
+#: A mesh topology of either panel kind.
+Topology = Union[MeshTopology, HexagonTopology]
 
 
-def _sag_ratio(k):
+def _sag_ratio(k: FloatOrArray) -> FloatArray:
     """``sag / L = k / K(k^2)`` of the pinned elastica (:func:`elastica.sag_from_k` / L)."""
     return k / ellipk(np.square(k))
 
@@ -49,7 +57,7 @@ _K_TABLE = np.linspace(0.0, elastica.K_MAX, 1025)
 _RATIO_TABLE = _sag_ratio(_K_TABLE)
 
 
-def k_from_sag(sag_m, length_m):
+def k_from_sag(sag_m: npt.ArrayLike, length_m: FloatOrArray) -> FloatArray:
     """:func:`elastica.k_from_sag` without its general root finder, for the per-flush path.
 
     ``sag / L`` depends on ``k`` alone, so a table of it gives ``k`` to about 1e-7, and two
@@ -67,7 +75,8 @@ def k_from_sag(sag_m, length_m):
     return k
 
 
-def facade_topology(panel_count, vertex_budget=FACADE_VERTEX_BUDGET, kind='quad'):
+def facade_topology(panel_count: int, vertex_budget: int = FACADE_VERTEX_BUDGET,
+                    kind: str = 'quad') -> Topology:
     """Return the mesh topology for a facade of ``panel_count`` panels of ``kind``.
 
     Every row of a mesh block is a straight segment (a generator of the mid-rib cylinder or its
@@ -94,7 +103,7 @@ def facade_topology(panel_count, vertex_budget=FACADE_VERTEX_BUDGET, kind='quad'
     return MeshTopology(stations=stations, midrib_columns=2, flap_columns=2)
 
 
-def outline(batch):
+def outline(batch: Batch) -> FloatArray:
     """Corners (N, C, 3) of each flat panel's outline in its frame [m], counter-clockwise.
 
     A quad panel's rectangle (C = 4), a hexagonal panel's hexagon (C = 6, corners at 30 +
@@ -123,7 +132,8 @@ class FacadeMesher:
         Vertices of the whole facade the default topology stays within.
     """
 
-    def __init__(self, facade, topology=None, vertex_budget=FACADE_VERTEX_BUDGET):
+    def __init__(self, facade: Facade, topology: Optional[Topology] = None,
+                 vertex_budget: int = FACADE_VERTEX_BUDGET) -> None:
         self.facade = facade
         self.model = fold_model_of(facade.panels)
         self.kind = panel_kind(self.model.batch)
@@ -138,26 +148,27 @@ class FacadeMesher:
         self.angle_limits_rad = (self.model.open_fold_angle_rad,
                                  self.model.closed_fold_angle_rad)
         """Open and closed apex fold angles (N,) of every panel [rad]."""
-        self._frames = {}
-        self._rise_table_m = None
+        self._frames: dict[np.dtype[Any], tuple[npt.NDArray[Any], npt.NDArray[Any]]] = {}
+        self._rise_table_m: Optional[FloatArray] = None
         if self.kind == 'quad':
-            self._sag_limit_m = elastica.sag_from_k(elastica.K_MAX, self.model.batch.length_m)
+            self._sag_limit_m = elastica.sag_from_k(elastica.K_MAX,
+                                                    cast(PanelBatch, self.model.batch).length_m)
 
-    def __len__(self):
+    def __len__(self) -> int:
         return len(self.panel_ids)
 
     @property
-    def faces(self):
+    def faces(self) -> npt.NDArray[np.int32]:
         """(F, 3) triangle indices of one panel's mesh, shared by all panels."""
         return self.topology.faces
 
-    def batch(self, panels):
+    def batch(self, panels: IntArray) -> Batch:
         """Return the panel batch of the facade indices ``panels``."""
         if len(panels) == len(self):
             return self.model.batch
         return self.model.batch.take(panels)
 
-    def exact_shapes(self, fold_angle_rad):
+    def exact_shapes(self, fold_angle_rad: npt.ArrayLike) -> FloatArray:
         """Shape parameters (N,) of every panel at apex fold angles [rad], by the root finders.
 
         Raises ``ValueError`` for an angle outside a panel's open-closed interval (beyond
@@ -165,16 +176,18 @@ class FacadeMesher:
         """
         return self.model.shape_from_fold_angle(fold_angle_rad)
 
-    def shapes(self, panels, fold_angle_rad, batch=None):
+    def shapes(self, panels: IntArray, fold_angle_rad: npt.ArrayLike,
+               batch: Optional[Batch] = None) -> FloatArray:
         """Shape parameters of ``panels`` at fold angles [rad] from tables (clipped to limits)."""
         batch = self.batch(panels) if batch is None else batch
         angle = np.clip(fold_angle_rad, self.angle_limits_rad[0][panels],
                         self.angle_limits_rad[1][panels])
         if self.kind == 'quad':
-            sag = np.minimum(sag_for_apex_fold_angle(batch, angle), self._sag_limit_m[panels])
-            return k_from_sag(sag, batch.length_m)
+            quad = cast(PanelBatch, batch)
+            sag = np.minimum(sag_for_apex_fold_angle(quad, angle), self._sag_limit_m[panels])
+            return k_from_sag(sag, quad.length_m)
         if self._rise_table_m is None:
-            self._rise_table_m = self.model.shape_table()
+            self._rise_table_m = cast(HexagonFoldModel, self.model).shape_table()
         opened, closed = self.angle_limits_rad[0][panels], self.angle_limits_rad[1][panels]
         table = self._rise_table_m[panels]
         position = np.clip((angle - opened) / (closed - opened), 0.0, 1.0) * (table.shape[1] - 1)
@@ -183,10 +196,11 @@ class FacadeMesher:
         low, high = table[rows, lower], table[rows, lower + 1]
         return low + (position - lower) * (high - low)
 
-    def world_mesh(self, panels, shape, batch=None, dtype=np.float32):
+    def world_mesh(self, panels: IntArray, shape: npt.ArrayLike, batch: Optional[Batch] = None,
+                   dtype: npt.DTypeLike = np.float32) -> tuple[npt.NDArray[Any], npt.NDArray[Any]]:
         """(M, V, 3) vertices [m] and unit normals of ``panels`` in ENU at shape parameters."""
         batch = self.batch(panels) if batch is None else batch
-        build = hexagon_mesh if self.kind == 'hexagon' else fold_mesh
+        build: Callable[..., FoldMesh] = hexagon_mesh if self.kind == 'hexagon' else fold_mesh
         mesh = build(batch, shape, topology=self.topology, dtype=dtype)
         rotation_t, origin = self._frames_of(dtype)
         rotation_t = rotation_t[panels]
@@ -194,7 +208,7 @@ class FacadeMesher:
         vertices += origin[panels]
         return vertices, np.matmul(mesh.normals, rotation_t)
 
-    def _frames_of(self, dtype):
+    def _frames_of(self, dtype: npt.DTypeLike) -> tuple[npt.NDArray[Any], npt.NDArray[Any]]:
         """Transposed rotations (N, 3, 3) and origins (N, 1, 3) in ``dtype``, cached."""
         key = np.dtype(dtype)
         if key not in self._frames:
@@ -203,7 +217,7 @@ class FacadeMesher:
                 self.positions_enu.astype(key)[:, None, :])
         return self._frames[key]
 
-    def outline_enu(self, depth_m=0.0):
+    def outline_enu(self, depth_m: float = 0.0) -> FloatArray:
         """(N, C, 3) corners of every flat panel's outline in ENU, ``depth_m`` behind it [m]."""
         corners = outline(self.model.batch)
         corners[..., 2] = -depth_m
@@ -222,7 +236,9 @@ class PanelMesh:
     """(F, 3) vertex indices, counter-clockwise seen from the panel's front (outside)."""
 
 
-def fold_angles(facade_or_mesher, closure=None, fold_angle_rad=None):
+def fold_angles(facade_or_mesher: Union[Facade, FacadeMesher],
+                closure: Optional[npt.ArrayLike] = None,
+                fold_angle_rad: Optional[npt.ArrayLike] = None) -> FloatArray:
     """Apex fold angles (N,) [rad] of every panel from closures or fold angles (exactly one).
 
     ``closure`` in [0, 1] goes through the fold model's own map (linear in the apex fold
@@ -237,10 +253,13 @@ def fold_angles(facade_or_mesher, closure=None, fold_angle_rad=None):
         return mesher.model.fold_angle_from_closure(closure)
     # Through the closure, which checks the interval (and clips the root finders' rounding).
     return mesher.model.fold_angle_from_closure(
-        mesher.model.closure_from_fold_angle(fold_angle_rad))
+        mesher.model.closure_from_fold_angle(cast(npt.ArrayLike, fold_angle_rad)))
 
 
-def folded_meshes(facade_or_mesher, closure=None, fold_angle_rad=None, weld_vertices=True):
+def folded_meshes(facade_or_mesher: Union[Facade, FacadeMesher],
+                  closure: Optional[npt.ArrayLike] = None,
+                  fold_angle_rad: Optional[npt.ArrayLike] = None,
+                  weld_vertices: bool = True) -> list[PanelMesh]:
     """Every panel's folded mesh in the site ENU frame, one :class:`PanelMesh` per panel.
 
     Parameters
@@ -275,7 +294,8 @@ def folded_meshes(facade_or_mesher, closure=None, fold_angle_rad=None, weld_vert
     return meshes
 
 
-def weld(vertices, faces, tolerance_m=WELD_TOLERANCE_M):
+def weld(vertices: npt.ArrayLike, faces: npt.ArrayLike,
+         tolerance_m: float = WELD_TOLERANCE_M) -> tuple[FloatArray, npt.NDArray[np.int64]]:
     """Merge vertices closer than ``tolerance_m``; drop the triangles that collapse.
 
     Each vertex becomes the lowest-numbered vertex within the tolerance. Returns the kept
@@ -291,7 +311,7 @@ def weld(vertices, faces, tolerance_m=WELD_TOLERANCE_M):
     return vertices[kept], renumbered[distinct].astype(np.int64)
 
 
-def _mesher(facade_or_mesher):
+def _mesher(facade_or_mesher: Union[Facade, FacadeMesher]) -> FacadeMesher:
     if isinstance(facade_or_mesher, FacadeMesher):
         return facade_or_mesher
     return FacadeMesher(facade_or_mesher, vertex_budget=EXPORT_VERTEX_BUDGET)

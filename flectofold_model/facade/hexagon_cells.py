@@ -29,6 +29,10 @@ from dataclasses import dataclass
 import math
 
 import numpy as np
+import numpy.typing as npt
+
+from flectofold_model._validate import FloatArray, FloatOrArray, IntArray, PathLike
+from flectofold_model.facade.surfaces import ParametricSurface
 
 #: Azimuths of the flap axes (toward H_0, H_1, H_2) in the panel frame [rad].
 FLAP_AXIS_AZIMUTHS_RAD = np.radians([150.0, 270.0, 30.0])
@@ -61,18 +65,19 @@ class HexagonCells:
     curvature_flap_per_m: np.ndarray
     """(N, 3) signed normal curvature along each flap axis, convex positive [1/m]."""
 
-    def __len__(self):
+    def __len__(self) -> int:
         return self.row.shape[0]
 
     @property
-    def gaussian_sign(self):
+    def gaussian_sign(self) -> IntArray:
         """Sign of the Gaussian curvature from the three flap-axis curvatures: -1, 0 or +1."""
         a, b, c = second_form(self.curvature_flap_per_m, FLAP_AXIS_AZIMUTHS_RAD)
         determinant = a * c - b * b
         return np.sign(np.where(np.abs(determinant) < 1e-9, 0.0, determinant)).astype(int)
 
 
-def second_form(curvatures, azimuths_rad):
+def second_form(curvatures: npt.ArrayLike,
+                azimuths_rad: npt.ArrayLike) -> tuple[FloatArray, FloatArray, FloatArray]:
     """Coefficients ``a, b, c`` of ``kappa(theta) = a cos^2 + 2 b cos sin + c sin^2``.
 
     ``curvatures`` (N, 3) are normal curvatures along three distinct directions
@@ -84,7 +89,8 @@ def second_form(curvatures, azimuths_rad):
     return solved[0], solved[1], solved[2]
 
 
-def lattice(s_range, t_range, radius_m):
+def lattice(s_range: tuple[float, float], t_range: tuple[float, float],
+            radius_m: float) -> tuple[FloatArray, IntArray, IntArray]:
     """Centres (N, 2), rows and columns of the centred lattice of whole cells in a rectangle.
 
     ``s_range``, ``t_range`` are the rectangle's ``(low, high)`` [m]; cells have a corner
@@ -119,7 +125,7 @@ def lattice(s_range, t_range, radius_m):
             np.array(column, dtype=int))
 
 
-def corner_offsets(radius_m):
+def corner_offsets(radius_m: float) -> FloatArray:
     """Corner offsets (6, 2) of a hexagon with a corner along +y: azimuths 30 + 60 j deg."""
     angle = np.radians(30.0 + 60.0 * np.arange(6))
     return radius_m * np.stack([np.cos(angle), np.sin(angle)], axis=-1)
@@ -132,7 +138,7 @@ class Development:
     :meth:`parameters` maps ``(s, t)`` back to ``(u, v)``.
     """
 
-    def __init__(self, surface):
+    def __init__(self, surface: ParametricSurface) -> None:
         self.surface = surface
         u = np.linspace(-surface.width_m / 2, surface.width_m / 2, _ARC_SAMPLES)
         v = np.linspace(-surface.height_m / 2, surface.height_m / 2, _ARC_SAMPLES)
@@ -140,28 +146,28 @@ class Development:
         self._v, self._t = v, _arc_length(surface.point(np.zeros_like(v), v), v)
 
     @property
-    def s_range(self):
+    def s_range(self) -> tuple[float, float]:
         """Developed extent along the horizontal centre line ``(low, high)`` [m]."""
         return self._s[0], self._s[-1]
 
     @property
-    def t_range(self):
+    def t_range(self) -> tuple[float, float]:
         """Developed extent along the vertical centre line ``(low, high)`` [m]."""
         return self._t[0], self._t[-1]
 
-    def parameters(self, s, t):
+    def parameters(self, s: FloatArray, t: FloatArray) -> tuple[FloatArray, FloatArray]:
         """Surface parameters ``(u, v)`` [m] of developed coordinates ``(s, t)`` [m]."""
         return np.interp(s, self._s, self._u), np.interp(t, self._t, self._v)
 
 
-def _arc_length(points, parameter):
+def _arc_length(points: FloatArray, parameter: FloatArray) -> FloatArray:
     """Cumulative arc length along sampled points, zero where the parameter is zero."""
     steps = np.linalg.norm(np.diff(points, axis=0), axis=-1)
     length = np.concatenate([[0.0], np.cumsum(steps)])
     return length - np.interp(0.0, parameter, length)
 
 
-def tessellate(surface, cell_circumradius_m):
+def tessellate(surface: ParametricSurface, cell_circumradius_m: float) -> HexagonCells:
     """Hexagonal cells of circumradius ``cell_circumradius_m`` [m] on a parametric surface.
 
     See the module docstring for the layout, the frames and the edge rule.
@@ -187,7 +193,8 @@ def tessellate(surface, cell_circumradius_m):
                         curvature_flap_per_m=curvature)
 
 
-def _normal_curvature(surface, u, v, rotation, azimuth_rad, step=1e-4):
+def _normal_curvature(surface: ParametricSurface, u: FloatOrArray, v: FloatOrArray,
+                      rotation: FloatArray, azimuth_rad: float, step: float = 1e-4) -> FloatArray:
     """Return normal curvatures (N,) along the tangent ``azimuth_rad`` from each frame's x."""
     direction = math.cos(azimuth_rad) * rotation[..., 0] + math.sin(azimuth_rad) * rotation[..., 1]
     d_u = (surface.point(u + step, v) - surface.point(u - step, v)) / (2 * step)
@@ -197,7 +204,8 @@ def _normal_curvature(surface, u, v, rotation, azimuth_rad, step=1e-4):
     return surface.normal_curvature(u, v, du, dv, rotation[..., 2])
 
 
-def obj_hexagon_cells(vertices, faces, lines, source):
+def obj_hexagon_cells(vertices: FloatArray, faces: IntArray, lines: IntArray,
+                      source: PathLike) -> HexagonCells:
     """Cells from an OBJ mesh of hexagonal faces: one per face.
 
     ``faces`` (F, 6) index ``vertices`` (M, 3) in the facade frame [m]; ``lines`` (F,) are the
@@ -227,7 +235,7 @@ def obj_hexagon_cells(vertices, faces, lines, source):
                         curvature_flap_per_m=curvature)
 
 
-def _face_frame(offsets, where):
+def _face_frame(offsets: FloatArray, where: str) -> tuple[FloatArray, float]:
     """Frame (3, 3) and mean circumradius of one face given corner offsets from its centroid."""
     normal = np.linalg.svd(offsets)[2][-1]
     normal = normal if normal[2] >= 0 else -normal
@@ -247,7 +255,8 @@ def _face_frame(offsets, where):
     return np.stack([np.cross(y_axis, normal), y_axis, normal], axis=-1), mean
 
 
-def _check_regular(flat, radii, mean, normal, where):
+def _check_regular(flat: FloatArray, radii: FloatArray, mean: float, normal: FloatArray,
+                   where: str) -> None:
     worst = int(np.argmax(np.abs(radii / mean - 1)))
     if abs(radii[worst] / mean - 1) > OBJ_TOLERANCE:
         raise ValueError(f'{where} is not a near-regular hexagon: corner {worst + 1} is '
@@ -269,7 +278,7 @@ def _check_regular(flat, radii, mean, normal, where):
                          f'around its centre (60 deg expected)')
 
 
-def _neighbour_curvature(centre, rotation, faces):
+def _neighbour_curvature(centre: FloatArray, rotation: FloatArray, faces: IntArray) -> FloatArray:
     """Estimate normal curvatures (F, 3) along the flap axes from the normals' turn.
 
     Across each shared edge the turn of the normal over the centre distance is the normal
@@ -277,7 +286,7 @@ def _neighbour_curvature(centre, rotation, faces):
     three edge directions (0, 60 and 120 degrees, either side) fix the second fundamental
     form; a direction without a neighbour (a boundary face) counts as flat.
     """
-    owners = {}
+    owners: dict[tuple[int, int], list[int]] = {}
     for face, corners in enumerate(faces):
         for a, b in zip(corners, np.roll(corners, -1)):
             owners.setdefault((min(a, b), max(a, b)), []).append(face)
@@ -300,7 +309,7 @@ def _neighbour_curvature(centre, rotation, faces):
     return (a[:, None] * cos * cos + 2 * b[:, None] * cos * sin + c[:, None] * sin * sin)
 
 
-def _rows_and_columns(centre, radius):
+def _rows_and_columns(centre: FloatArray, radius: FloatArray) -> tuple[IntArray, IntArray]:
     """Rows (centres within half a radius in height) up from the bottom; columns left to right."""
     order = np.argsort(centre[:, 1], kind='stable')
     row = np.empty(len(centre), dtype=int)

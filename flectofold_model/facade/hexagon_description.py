@@ -11,14 +11,17 @@ the quad rule.
 """
 
 import math
+from pathlib import Path
+from typing import Any, Mapping
 
 import numpy as np
 
+from flectofold_model._validate import FloatArray
 from flectofold_model.facade import hexagon_cells, surfaces
 from flectofold_model.facade.hexagon_prefold import (centre_rise_m, flap_tilt_rad,
                                                      reflection_fold_rad)
-from flectofold_model.facade.schema import (build, check, check_mix, FacadeError, need,
-                                            PANEL_DEFAULTS, PANEL_KEYS, parametric, SCHEMA,
+from flectofold_model.facade.schema import (build, BuiltPanels, check, check_mix, FacadeError,
+                                            need, PANEL_DEFAULTS, PANEL_KEYS, parametric, SCHEMA,
                                             shown_key, surface_kind)
 from flectofold_model.kinematics.hexagon.closure import HexagonFoldModel, MAX_SPOKE_TILT_RAD
 from flectofold_model.kinematics.hexagon.panel import HexagonBatch, HexagonPanel
@@ -30,7 +33,7 @@ _OVERRIDE = {key: SCHEMA['panel'][key] for key in PANEL_KEYS['hexagon']
              if key != 'circumradius_m'}
 
 
-def cells(document, base_directory):
+def cells(document: Mapping[str, Any], base_directory: Path) -> hexagon_cells.HexagonCells:
     """Validate ``surface``, ``grid`` and the lattice size; return the surface's cells."""
     template, grid = document['panel'], document.get('grid', {})
     for key in grid:
@@ -56,7 +59,7 @@ def cells(document, base_directory):
     return build('surface', lambda: hexagon_cells.tessellate(shape, radius + gap / _SQRT3))
 
 
-def panels(cells, document):
+def panels(cells: hexagon_cells.HexagonCells, document: Mapping[str, Any]) -> BuiltPanels:
     """Panels, ids, kept cell indices, surface and moulded pre-folds, exclusions."""
     template = {k: v for k, v in document['panel'].items() if k != 'type'}
     gap = document.get('grid', {}).get('gap_m', 0.0)
@@ -93,7 +96,7 @@ def panels(cells, document):
         moulded, excluded
 
 
-def _overrides(overrides, ids):
+def _overrides(overrides: Mapping[Any, Any], ids: list[str]) -> Mapping[Any, Any]:
     known = set(ids)
     for panel_id, values in overrides.items():
         if panel_id not in known:
@@ -110,7 +113,7 @@ def _overrides(overrides, ids):
     return overrides
 
 
-def _check_settings(values, where):
+def _check_settings(values: Mapping[str, Any], where: str) -> None:
     for key in ('fold_line_sag_m', 'hinge_width_m'):
         if key not in values:
             raise FacadeError(f'panel.{key}: missing')
@@ -124,7 +127,8 @@ def _check_settings(values, where):
                           f'got {most:g}')
 
 
-def _supplied(cells, radius, sag, ids):
+def _supplied(cells: hexagon_cells.HexagonCells, radius: FloatArray, sag: FloatArray,
+              ids: list[str]) -> FloatArray:
     """Pre-fold (N,) each cell's patch supplies; refuse patches too curved for the panel."""
     if np.any(radius <= 0):
         raise FacadeError('grid.gap_m: leaves no panel in a cell')
@@ -141,7 +145,7 @@ def _supplied(cells, radius, sag, ids):
     return reflection_fold_rad(radius, sag, rise) + tilt.min(axis=-1)
 
 
-def _check_fold_models(panels, ids):
+def _check_fold_models(panels: list[HexagonPanel], ids: list[str]) -> None:
     """Refuse panels the fold model cannot close (hinge too narrow, pre-fold past closed)."""
     try:
         HexagonFoldModel(HexagonBatch.from_panels(panels))

@@ -38,19 +38,22 @@ nothing. The mould supplies the rest as for quads.
 """
 
 import numpy as np
+import numpy.typing as npt
 
+from flectofold_model._validate import FloatArray
 from flectofold_model.kinematics.hexagon.closure import MAX_SPOKE_TILT_RAD
 from flectofold_model.kinematics.hexagon.panel import HexagonBatch
 from flectofold_model.kinematics.hexagon.reflection import SectorGeometry
 
 
-def centre_rise_m(circumradius_m, curvature_flap_per_m):
+def centre_rise_m(circumradius_m: npt.ArrayLike, curvature_flap_per_m: FloatArray) -> FloatArray:
     """Rise ``d`` (N,) of the centre over the triangle vertices' plane on the patch [m]."""
     radius = np.asarray(circumradius_m, dtype=float)
     return radius ** 2 / 2 * np.mean(curvature_flap_per_m, axis=-1)
 
 
-def reflection_fold_rad(circumradius_m, fold_line_sag_m, rise_m):
+def reflection_fold_rad(circumradius_m: npt.ArrayLike, fold_line_sag_m: npt.ArrayLike,
+                        rise_m: npt.ArrayLike) -> FloatArray:
     """Apex fold angle (N,) of the panel model at centre rises ``rise_m`` (N,), odd in the rise.
 
     ``ValueError`` for a rise beyond the model's largest spoke tilt.
@@ -71,14 +74,16 @@ def reflection_fold_rad(circumradius_m, fold_line_sag_m, rise_m):
     return np.sign(rise) * SectorGeometry(batch, np.abs(rise)).apex_fold_angle_rad
 
 
-def flap_tilt_rad(circumradius_m, fold_line_sag_m, curvature_flap_per_m):
+def flap_tilt_rad(circumradius_m: npt.ArrayLike, fold_line_sag_m: npt.ArrayLike,
+                  curvature_flap_per_m: npt.ArrayLike) -> FloatArray:
     """Tilt (N, 3) of each flap toward closing from the patch's cross-curvature [rad]."""
     radius = np.asarray(circumradius_m, dtype=float)[..., None]
     apex = radius / 2 + np.asarray(fold_line_sag_m, dtype=float)[..., None]
     return -np.asarray(curvature_flap_per_m, dtype=float) * (radius - apex) / 2
 
 
-def surface_prefold_rad(circumradius_m, fold_line_sag_m, curvature_flap_per_m):
+def surface_prefold_rad(circumradius_m: npt.ArrayLike, fold_line_sag_m: npt.ArrayLike,
+                        curvature_flap_per_m: FloatArray) -> FloatArray:
     """Pre-fold (N,) each patch supplies: centre-rise fold plus the least flap tilt [rad]."""
     rise = centre_rise_m(circumradius_m, curvature_flap_per_m)
     tilt = flap_tilt_rad(circumradius_m, fold_line_sag_m, curvature_flap_per_m)

@@ -20,8 +20,13 @@ References
 """
 
 from pathlib import Path
+from typing import Any, Iterable, Sequence
 
 import numpy as np
+import numpy.typing as npt
+
+from flectofold_model._validate import FloatArray, IntArray, PathLike
+from flectofold_model.facade.folded_mesh import PanelMesh
 
 #: File suffixes :func:`write_meshes` knows, lower case.
 MESH_SUFFIXES = ('.obj', '.gltf', '.glb')
@@ -32,12 +37,12 @@ _ARRAY_BUFFER, _ELEMENT_ARRAY_BUFFER = 34962, 34963
 ENU_TO_GLTF = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, -1.0, 0.0]])
 
 
-def enu_to_gltf(points_enu):
+def enu_to_gltf(points_enu: npt.ArrayLike) -> FloatArray:
     """Site points (..., 3) (east, north, up) [m] in glTF's Y-up axes: (east, up, -north)."""
     return np.asarray(points_enu, dtype=float) @ ENU_TO_GLTF.T
 
 
-def mesh_format(path):
+def mesh_format(path: PathLike) -> str:
     """Return ``'obj'``, ``'gltf'`` or ``'glb'`` for a path; ``ValueError`` for another suffix."""
     suffix = Path(path).suffix.lower()
     if suffix not in MESH_SUFFIXES:
@@ -46,7 +51,8 @@ def mesh_format(path):
     return suffix[1:]
 
 
-def write_meshes(meshes, path, comments=()):
+def write_meshes(meshes: Sequence[PanelMesh], path: PathLike,
+                 comments: Iterable[str] = ()) -> Path:
     """Write :class:`~.folded_mesh.PanelMesh` es to ``path`` in the format of its suffix.
 
     ``comments`` are lines for the OBJ header (glTF: ``asset.extras.comments``). Returns
@@ -58,7 +64,7 @@ def write_meshes(meshes, path, comments=()):
     return write_gltf(meshes, path, comments)
 
 
-def write_obj(meshes, path, comments=()):
+def write_obj(meshes: Sequence[PanelMesh], path: PathLike, comments: Iterable[str] = ()) -> Path:
     """Write the panels as OBJ objects in the site frame (vertices to the micrometre)."""
     lines = [f'# {line}' for line in comments]
     lines += ['# frame: site_enu, x east, y north, z up; units: metres',
@@ -74,14 +80,19 @@ def write_obj(meshes, path, comments=()):
     return Path(path)
 
 
-def write_gltf(meshes, path, comments=()):
+def write_gltf(meshes: Sequence[PanelMesh], path: PathLike,
+               comments: Iterable[str] = ()) -> Path:
     """Write the panels as glTF 2.0 (one node and mesh per panel), Y-up: see the module doc.
 
     ``.glb`` is the binary container; ``.gltf`` is JSON with the buffer embedded as a
     base64 data URI (one self-contained file).
     """
     import pygltflib as gl
-    blob, views, accessors, nodes, gltf_meshes = bytearray(), [], [], [], []
+    blob = bytearray()
+    views: list[Any] = []
+    accessors: list[Any] = []
+    nodes: list[Any] = []
+    gltf_meshes: list[Any] = []
     for mesh in meshes:
         positions = enu_to_gltf(mesh.vertices_m).astype(np.float32)
         indices = np.asarray(mesh.faces, dtype=np.uint32).reshape(-1)
@@ -111,7 +122,8 @@ def write_gltf(meshes, path, comments=()):
     return Path(path)
 
 
-def _add(blob, views, accessors, array, target, component, kind, count):
+def _add(blob: bytearray, views: list[Any], accessors: list[Any], array: npt.NDArray[Any],
+         target: int, component: int, kind: str, count: int) -> int:
     """Append ``array``'s bytes (4-byte aligned) as a buffer view and an accessor of it."""
     import pygltflib as gl
     blob.extend(b'\0' * (-len(blob) % 4))
@@ -123,7 +135,8 @@ def _add(blob, views, accessors, array, target, component, kind, count):
     return len(accessors) - 1
 
 
-def write_quad_obj(vertices_m, quads, path, comments=()):
+def write_quad_obj(vertices_m: FloatArray, quads: IntArray, path: PathLike,
+                   comments: Iterable[str] = ()) -> Path:
     """Write a quad mesh (facade frame, metres) as OBJ, one ``f`` of four corners per quad."""
     lines = [f'# {line}' for line in comments]
     lines += ['# frame: facade frame, x along the facade (right seen from outside), y up, '

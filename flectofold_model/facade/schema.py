@@ -7,7 +7,9 @@ tables and build the parametric surface with these helpers; every refusal is a
 """
 
 import math
+from typing import Any, Callable, Mapping, TypeVar
 
+from flectofold_model._validate import IntArray
 from flectofold_model.facade import surfaces
 from flectofold_model.safe_yaml import short_repr
 
@@ -16,7 +18,14 @@ class FacadeError(ValueError):
     """A facade description that cannot be built; the message names the key and the reason."""
 
 
-SCHEMA = {
+_T = TypeVar('_T')
+#: What building a facade's panels gives, for either kind: panels, their ids, the indices of
+#: the patches or cells kept, surface and moulded pre-folds [rad], ``(panel id, reason)`` of
+#: those left out.
+BuiltPanels = tuple[list[Any], list[str], IntArray, list[float], list[float],
+                    list[tuple[str, str]]]
+
+SCHEMA: dict[str, Any] = {
     'name': str,
     'site': {'latitude_deg': float, 'longitude_deg': float, 'elevation_m': float,
              'utc_offset_h': float},
@@ -47,14 +56,14 @@ PANEL_DEFAULTS = {'min_prefold_rad': math.radians(5.0),
                   'max_moulded_prefold_rad': math.radians(15.0), 'closed_clearance_m': 0.02}
 
 
-def shown_key(key):
+def shown_key(key: object) -> str:
     """Return a key as a message shows it: a short string as is, anything else quoted."""
     if isinstance(key, str) and len(key) <= 40 and key.isprintable():
         return key
     return short_repr(key)
 
 
-def check(document, schema, prefix):
+def check(document: Mapping[Any, Any], schema: Mapping[str, Any], prefix: str) -> None:
     for key, value in document.items():
         where = f'{prefix}{shown_key(key)}'
         if key not in schema:
@@ -69,7 +78,7 @@ def check(document, schema, prefix):
             check_type(where, value, expected)
 
 
-def check_type(where, value, expected):
+def check_type(where: str, value: object, expected: type) -> None:
     if expected is float:
         if isinstance(value, bool) or not isinstance(value, (int, float)):
             raise FacadeError(f'{where}: must be a number, got {short_repr(value)}')
@@ -86,19 +95,19 @@ def check_type(where, value, expected):
         raise FacadeError(f'{where}: must be a {expected.__name__}, got {short_repr(value)}')
 
 
-def check_mix(settings, where):
+def check_mix(settings: Mapping[Any, Any], where: str) -> None:
     if 'type' in settings:
         raise FacadeError(f'{where}.type: a facade is all quad or all hexagon panels; set '
                           f'panel.type once for the whole facade')
 
 
-def need(section, name, key):
+def need(section: Mapping[Any, Any], name: str, key: str) -> Any:
     if key not in section:
         raise FacadeError(f'{name}.{key}: missing')
     return section[key]
 
 
-def build(where, make):
+def build(where: str, make: Callable[[], _T]) -> _T:
     try:
         return make()
     except (TypeError, ValueError) as error:
@@ -107,7 +116,7 @@ def build(where, make):
         raise FacadeError(f'{where}: {reason}') from None
 
 
-def surface_kind(surface):
+def surface_kind(surface: Mapping[Any, Any]) -> str:
     """Check ``surface.type`` and that every key belongs to it; return the type."""
     kind = need(surface, 'surface', 'type')
     if kind not in SURFACE_KEYS:
@@ -120,7 +129,7 @@ def surface_kind(surface):
     return kind
 
 
-def parametric(surface, kind):
+def parametric(surface: Mapping[Any, Any], kind: str) -> surfaces.ParametricSurface:
     """Build the parametric surface of a checked ``surface`` section."""
     width, height = (need(surface, 'surface', key) for key in ('width_m', 'height_m'))
     for key, value in (('width_m', width), ('height_m', height)):

@@ -18,8 +18,15 @@ curvatures along ``x`` and ``y``.
 from dataclasses import dataclass
 import math
 from pathlib import Path
+from typing import Callable
 
 import numpy as np
+import numpy.typing as npt
+
+from flectofold_model._validate import FloatArray, FloatOrArray, IntArray, PathLike
+
+#: The height ``w(u, v)`` of a parametric surface over its parameters [m].
+Depth = Callable[[FloatArray, FloatArray], FloatArray]
 
 
 @dataclass(frozen=True)
@@ -41,11 +48,11 @@ class Patches:
     curvature_y_per_m: np.ndarray
     """Signed normal curvature along y (convex positive) [1/m]."""
 
-    def __len__(self):
+    def __len__(self) -> int:
         return self.row.shape[0]
 
     @property
-    def gaussian_sign(self):
+    def gaussian_sign(self) -> IntArray:
         """Sign of the Gaussian curvature estimate per patch: -1 anticlastic, +1 synclastic."""
         product = self.curvature_x_per_m * self.curvature_y_per_m
         return np.sign(np.where(np.abs(product) < 1e-9, 0.0, product)).astype(int)
@@ -54,18 +61,18 @@ class Patches:
 class ParametricSurface:
     """A surface ``p(u, v) = u e1 + v e2 + w(u, v) e3`` for ``|u| <= W/2, |v| <= H/2``."""
 
-    def __init__(self, kind, width_m, height_m, depth):
+    def __init__(self, kind: str, width_m: float, height_m: float, depth: Depth) -> None:
         self.kind = kind
         self.width_m = width_m
         self.height_m = height_m
         self._depth = depth
 
-    def point(self, u, v):
+    def point(self, u: npt.ArrayLike, v: npt.ArrayLike) -> FloatArray:
         """Points (..., 3) of the surface at parameters ``u``, ``v`` [m]."""
         u, v = np.broadcast_arrays(np.asarray(u, dtype=float), np.asarray(v, dtype=float))
         return np.stack([u, v, self._depth(u, v)], axis=-1)
 
-    def tessellate(self, rows, columns, midrib_along='v'):
+    def tessellate(self, rows: int, columns: int, midrib_along: str = 'v') -> Patches:
         """Split into ``rows x columns`` equal parameter cells, one patch each.
 
         Rows count upward from the bottom, columns rightward. ``midrib_along`` is ``'v'``
@@ -98,7 +105,7 @@ class ParametricSurface:
             curvature_x_per_m=np.where(along_v, curvature_v, curvature_u),
             curvature_y_per_m=np.where(along_v, curvature_u, curvature_v))
 
-    def grid_quads(self, rows, columns):
+    def grid_quads(self, rows: int, columns: int) -> tuple[FloatArray, IntArray]:
         """Return the cell grid of :meth:`tessellate` as a quad mesh on the surface (facade frame).
 
         Returns vertices ``((rows + 1) (columns + 1), 3)`` [m], the grid nodes row by row from
@@ -112,7 +119,8 @@ class ParametricSurface:
         quads = np.stack([node[:-1, :-1], node[:-1, 1:], node[1:, 1:], node[1:, :-1]], axis=-1)
         return vertices, quads.reshape(-1, 4)
 
-    def frame_vectors(self, u, v, step=1e-4):
+    def frame_vectors(self, u: FloatOrArray, v: FloatOrArray,
+                      step: float = 1e-4) -> tuple[FloatArray, FloatArray, FloatArray]:
         d_u = (self.point(u + step, v) - self.point(u - step, v)) / (2 * step)
         d_v = (self.point(u, v + step) - self.point(u, v - step)) / (2 * step)
         normal = _unit(np.cross(d_u, d_v))
@@ -120,7 +128,8 @@ class ParametricSurface:
         tangent_u = np.cross(tangent_v, normal)
         return tangent_u, tangent_v, normal
 
-    def normal_curvature(self, u, v, du, dv, normal, step=1e-3):
+    def normal_curvature(self, u: FloatOrArray, v: FloatOrArray, du: FloatOrArray,
+                         dv: FloatOrArray, normal: FloatArray, step: float = 1e-3) -> FloatArray:
         ahead = self.point(u + du * step, v + dv * step)
         behind = self.point(u - du * step, v - dv * step)
         middle = self.point(u, v)
@@ -130,12 +139,12 @@ class ParametricSurface:
         return -np.sum(second * normal, axis=-1) / np.sum(first * first, axis=-1)
 
 
-def plane(width_m, height_m):
+def plane(width_m: float, height_m: float) -> ParametricSurface:
     """Build a flat facade."""
     return ParametricSurface('plane', width_m, height_m, lambda u, v: np.zeros_like(u))
 
 
-def cylinder(width_m, height_m, radius_m):
+def cylinder(width_m: float, height_m: float, radius_m: float) -> ParametricSurface:
     """Build a vertical cylinder of signed radius (positive: convex, bulging out)."""
     radius = float(radius_m)
     if abs(radius) <= width_m / 2:
@@ -146,7 +155,8 @@ def cylinder(width_m, height_m, radius_m):
                              lambda u, v: sign * (np.sqrt(radius**2 - u**2) - abs(radius)))
 
 
-def dome(width_m, height_m, semi_axis_u_m, semi_axis_v_m, depth_m):
+def dome(width_m: float, height_m: float, semi_axis_u_m: float, semi_axis_v_m: float,
+         depth_m: float) -> ParametricSurface:
     """Build the cap of an ellipsoid (synclastic): semi-axes along ``e1``, ``e2``, and depth."""
     for name, value, least in (('semi_axis_u_m', semi_axis_u_m, width_m / 2),
                                ('semi_axis_v_m', semi_axis_v_m, height_m / 2)):
@@ -156,12 +166,13 @@ def dome(width_m, height_m, semi_axis_u_m, semi_axis_v_m, depth_m):
     if depth_m <= 0:
         raise ValueError(f'dome depth_m must be positive, got {depth_m:g} m')
 
-    def depth(u, v):
+    def depth(u: FloatArray, v: FloatArray) -> FloatArray:
         return depth_m * (np.sqrt(1.0 - (u / semi_axis_u_m)**2 - (v / semi_axis_v_m)**2) - 1.0)
     return ParametricSurface('dome', width_m, height_m, depth)
 
 
-def saddle(width_m, height_m, curvature_u_per_m, curvature_v_per_m):
+def saddle(width_m: float, height_m: float, curvature_u_per_m: float,
+           curvature_v_per_m: float) -> ParametricSurface:
     """Build a hyperbolic paraboloid ``w = -(k_u u**2 + k_v v**2) / 2`` (anticlastic).
 
     The signed curvatures must differ in sign.
@@ -174,7 +185,7 @@ def saddle(width_m, height_m, curvature_u_per_m, curvature_v_per_m):
         lambda u, v: -(curvature_u_per_m * u**2 + curvature_v_per_m * v**2) / 2)
 
 
-def read_obj_quads(path):
+def read_obj_quads(path: PathLike) -> tuple[FloatArray, IntArray]:
     """Vertices (M, 3) and quad faces (Q, 4) of an OBJ file [facade frame, metres].
 
     Only ``v`` and ``f`` lines matter; face entries may carry ``/vt/vn`` indices, negative
@@ -190,14 +201,16 @@ _FACE_NAMES = {4: ('quad', 'only quad faces make panels'),
                                 'quad or all hexagon panels)')}
 
 
-def read_obj_faces(path, corners):
+def read_obj_faces(path: PathLike, corners: int) -> tuple[FloatArray, IntArray, IntArray]:
     """Vertices (M, 3), faces (F, corners) and the faces' line numbers (F,) of an OBJ file.
 
     As :func:`read_obj_quads`, for faces of ``corners`` corners (4 or 6): every face must have
     that many.
     """
     name, rule = _FACE_NAMES[corners]
-    vertices, faces, lines = [], [], []
+    vertices: list[list[float]] = []
+    faces: list[list[int]] = []
+    lines: list[int] = []
     try:
         text = Path(path).read_text()
     except OSError as error:
@@ -225,13 +238,13 @@ def read_obj_faces(path, corners):
             lines.append(number)
     if not faces:
         raise ValueError(f'{path}: no {name} faces found')
-    faces = np.array(faces)
-    if faces.min() < 0 or faces.max() >= len(vertices):
+    indices = np.array(faces)
+    if indices.min() < 0 or indices.max() >= len(vertices):
         raise ValueError(f'{path}: a face refers to a vertex that does not exist')
-    return np.array(vertices), faces, np.array(lines)
+    return np.array(vertices), indices, np.array(lines)
 
 
-def obj_patches(vertices, faces, midrib_along='v'):
+def obj_patches(vertices: FloatArray, faces: IntArray, midrib_along: str = 'v') -> Patches:
     """Patches from a quad mesh: one per quad, frames from the quad, curvature from neighbours.
 
     The normal curvature along a direction is estimated from the change of the face normal to
@@ -263,8 +276,9 @@ def obj_patches(vertices, faces, midrib_along='v'):
                    curvature_x_per_m=curvature_x, curvature_y_per_m=curvature_y)
 
 
-def _neighbour_curvature(centre, normal, direction, faces):
-    shared = {}
+def _neighbour_curvature(centre: FloatArray, normal: FloatArray, direction: FloatArray,
+                         faces: IntArray) -> FloatArray:
+    shared: dict[tuple[int, int], list[int]] = {}
     for face, corners in enumerate(faces):
         for a, b in zip(corners, np.roll(corners, -1)):
             shared.setdefault((min(a, b), max(a, b)), []).append(face)
@@ -286,5 +300,5 @@ def _neighbour_curvature(centre, normal, direction, faces):
     return np.divide(curvature, weight, out=np.zeros_like(curvature), where=weight > 0)
 
 
-def _unit(vectors):
+def _unit(vectors: FloatArray) -> FloatArray:
     return vectors / np.linalg.norm(vectors, axis=-1, keepdims=True)

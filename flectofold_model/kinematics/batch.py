@@ -1,6 +1,7 @@
 """What the panel batches of both kinds share: panels of one kind as arrays of shape ``(N,)``."""
 
 from dataclasses import fields
+from typing import Any, ClassVar, Iterable, Self, Union
 
 import numpy as np
 
@@ -11,10 +12,11 @@ class PanelArrays:
     A subclass sets :attr:`panel_class`, the validated single-panel dataclass it stacks.
     """
 
-    panel_class = None
+    panel_class: ClassVar[Any] = None
+    __dataclass_fields__: ClassVar[dict[str, Any]]  # a dataclass's, for the type checker
 
     @classmethod
-    def from_panels(cls, panels):
+    def from_panels(cls, panels: Iterable[Any]) -> Self:
         """Stack validated panels of :attr:`panel_class` (any iterable, at least one)."""
         panels = list(panels)
         if not panels:
@@ -29,16 +31,16 @@ class PanelArrays:
                       for field in fields(cls)})
 
     @classmethod
-    def repeat(cls, panel, count):
+    def repeat(cls, panel: Any, count: Union[int, np.integer[Any]]) -> Self:
         """``count`` copies of one panel."""
         if isinstance(count, bool) or not isinstance(count, (int, np.integer)) or count < 1:
             raise ValueError(f'count must be a positive integer, got {count!r}')
         return cls.from_panels([panel]).take(np.zeros(int(count), dtype=np.intp))
 
-    def take(self, indices):
+    def take(self, indices: Any) -> Self:
         """Return the sub-batch at ``indices`` (any numpy index)."""
         return type(self)(**{field.name: getattr(self, field.name)[indices]
                              for field in fields(self)})
 
-    def __len__(self):
+    def __len__(self) -> int:
         return getattr(self, fields(self)[0].name).shape[0]

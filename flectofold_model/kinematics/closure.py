@@ -19,13 +19,15 @@ The support displacement is counted from the unactuated state: the chord B'C' is
 """
 
 from dataclasses import dataclass
+from typing import Optional
 
 import numpy as np
+import numpy.typing as npt
 
-from flectofold_model._validate import in_range
+from flectofold_model._validate import FloatArray, FloatOrArray, in_range
 from flectofold_model.kinematics import elastica
 from flectofold_model.kinematics.closure_map import LinearClosureMap
-from flectofold_model.kinematics.mesh import DEFAULT_TOPOLOGY, fold_mesh
+from flectofold_model.kinematics.mesh import DEFAULT_TOPOLOGY, fold_mesh, FoldMesh, MeshTopology
 from flectofold_model.kinematics.panel import PanelBatch
 from flectofold_model.kinematics.reflection import (apex_fold_angle, crease_mismatch_m, flap_tip,
                                                     sag_for_apex_fold_angle)
@@ -55,7 +57,7 @@ class FoldState:
     """``tip_travel_m / support_displacement_m``; NaN at zero displacement."""
 
     @property
-    def shape_parameter(self):
+    def shape_parameter(self) -> FloatArray:
         """The one number that fixes the shape: the elastica modulus."""
         return self.elastica_k
 
@@ -71,8 +73,9 @@ class FoldModel(LinearClosureMap):
 
     crease_name = 'reflected crease'
     hinge_remedy = 'widen the hinge zone or use a larger fold radius'
+    batch: PanelBatch
 
-    def __init__(self, batch):
+    def __init__(self, batch: PanelBatch) -> None:
         if not isinstance(batch, PanelBatch):
             raise TypeError(f'FoldModel needs a PanelBatch, got {type(batch).__name__}')
         self.batch = batch
@@ -94,45 +97,46 @@ class FoldModel(LinearClosureMap):
         self._check_hinges()
 
     @property
-    def open_shape(self):
+    def open_shape(self) -> FloatArray:
         """Shape parameter (elastica modulus) of the open state, (N,)."""
         return self.open_k
 
     @property
-    def closed_shape(self):
+    def closed_shape(self) -> FloatArray:
         """Shape parameter (elastica modulus) of the closed state, (N,)."""
         return self.closed_k
 
-    def shape_from_fold_angle(self, fold_angle_rad):
+    def shape_from_fold_angle(self, fold_angle_rad: npt.ArrayLike) -> FloatArray:
         """Elastica modulus for apex fold angles [rad] between the open and closed limits."""
         self.closure_from_fold_angle(fold_angle_rad)
         return self._k_for_fold_angle(self._per_panel('fold_angle_rad', fold_angle_rad))
 
-    def mesh(self, shape, topology=None, dtype=np.float64, out=None):
+    def mesh(self, shape: npt.ArrayLike, topology: Optional[MeshTopology] = None,
+             dtype: npt.DTypeLike = np.float64, out: Optional[FoldMesh] = None) -> FoldMesh:
         """Folded meshes at shape parameters (elastica moduli) ``shape`` (N,)."""
         return fold_mesh(self.batch, shape, topology or DEFAULT_TOPOLOGY, dtype, out)
 
-    def _collision_limit(self):
+    def _collision_limit(self) -> FloatArray:
         batch = self.batch
         cosine = ((batch.closed_clearance_m / 2 - batch.end_y_m)
                   / (batch.width_m / 2 - batch.end_y_m))
         return np.arccos(np.clip(cosine, -1.0, 1.0))
 
-    def _elastica_limit(self):
+    def _elastica_limit(self) -> FloatArray:
         return apex_fold_angle(self.batch, elastica.sag_from_k(elastica.K_MAX,
                                                                self.batch.length_m))
 
-    def _k_for_fold_angle(self, fold_angle_rad):
+    def _k_for_fold_angle(self, fold_angle_rad: FloatArray) -> FloatArray:
         sag = sag_for_apex_fold_angle(self.batch, fold_angle_rad)
         limit = elastica.sag_from_k(elastica.K_MAX, self.batch.length_m)
         return elastica.k_from_sag(np.minimum(sag, limit), self.batch.length_m)
 
-    def displacement_from_k(self, k):
+    def displacement_from_k(self, k: FloatOrArray) -> FloatArray:
         """Support displacement [m] since the open state for elastica moduli ``k``."""
         shortening = elastica.shortening_from_k(k, self.batch.length_m)
         return np.maximum(shortening - self._open_shortening_m, 0.0)
 
-    def k_from_displacement(self, support_displacement_m):
+    def k_from_displacement(self, support_displacement_m: npt.ArrayLike) -> FloatArray:
         """Elastica modulus for support displacements [m] in ``[0, max]``."""
         displacement = self._per_panel('support_displacement_m', support_displacement_m)
         in_range('support_displacement_m / its closed value',
@@ -142,17 +146,17 @@ class FoldModel(LinearClosureMap):
                        elastica.shortening_from_k(self.closed_k, self.batch.length_m)),
             self.batch.length_m)
 
-    def state_from_closure(self, closure):
+    def state_from_closure(self, closure: npt.ArrayLike) -> FoldState:
         """Full :class:`FoldState` for closure in [0, 1] (scalar or one per panel)."""
         fold_angle = self.fold_angle_from_closure(closure)
         return self._state(self._k_for_fold_angle(fold_angle))
 
-    def state_from_displacement(self, support_displacement_m):
+    def state_from_displacement(self, support_displacement_m: npt.ArrayLike) -> FoldState:
         """Full :class:`FoldState` for support displacements [m] (scalar or one per panel)."""
         k = self.k_from_displacement(support_displacement_m)
         return self._state(k, self._per_panel('support_displacement_m', support_displacement_m))
 
-    def state_from_k(self, k):
+    def state_from_k(self, k: npt.ArrayLike) -> FoldState:
         """Full :class:`FoldState` for elastica moduli between the open and closed states."""
         k = self._per_panel('elastica_k', k)
         in_range('elastica_k', k - self.open_k, 0.0, np.inf)
@@ -161,7 +165,7 @@ class FoldModel(LinearClosureMap):
 
     state_from_shape = state_from_k
 
-    def _state(self, k, displacement=None):
+    def _state(self, k: FloatArray, displacement: Optional[FloatArray] = None) -> FoldState:
         length = self.batch.length_m
         sag = elastica.sag_from_k(k, length)
         fold_angle = apex_fold_angle(self.batch, sag)

@@ -4,9 +4,12 @@
 holding only its pre-fold), 1 closed.
 """
 
-import numpy as np
+from typing import Any
 
-from flectofold_model._validate import in_range, real_array
+import numpy as np
+import numpy.typing as npt
+
+from flectofold_model._validate import FloatArray, in_range, real_array
 
 #: Closure a computed fold angle may miss its interval by (root finders' rounding).
 CLOSURE_ROUNDING = 1e-9
@@ -21,11 +24,16 @@ class LinearClosureMap:
     #: The crease and what to change when a hinge cannot absorb its mismatch (for messages).
     crease_name = 'crease'
     hinge_remedy = 'widen the hinge zone'
+    # What the fold model sets (for the type checker).
+    batch: Any
+    open_fold_angle_rad: FloatArray
+    closed_fold_angle_rad: FloatArray
+    crease_mismatch_m: FloatArray
 
-    def __len__(self):
+    def __len__(self) -> int:
         return len(self.batch)
 
-    def _check_hinges(self):
+    def _check_hinges(self) -> None:
         too_narrow = self.crease_mismatch_m > self.batch.hinge_width_m
         if np.any(too_narrow):
             index = int(np.flatnonzero(too_narrow)[0])
@@ -34,7 +42,7 @@ class LinearClosureMap:
                 f'absorb the {self.crease_mismatch_m[index] * 1e3:.1f} mm by which the '
                 f'{self.crease_name} leaves the drawn fold line; {self.hinge_remedy}')
 
-    def _per_panel(self, name, value):
+    def _per_panel(self, name: str, value: npt.ArrayLike) -> FloatArray:
         array = real_array(name, value)
         try:
             return np.broadcast_to(array, (len(self),))
@@ -42,13 +50,13 @@ class LinearClosureMap:
             raise ValueError(f'{name} has shape {array.shape}; expected a scalar or '
                              f'({len(self)},) for {len(self)} panels') from None
 
-    def fold_angle_from_closure(self, closure):
+    def fold_angle_from_closure(self, closure: npt.ArrayLike) -> FloatArray:
         """Apex fold angle [rad] for closure in [0, 1]."""
         closure = in_range('closure', self._per_panel('closure', closure), 0.0, 1.0)
         return self.open_fold_angle_rad + closure * (self.closed_fold_angle_rad
                                                      - self.open_fold_angle_rad)
 
-    def closure_from_fold_angle(self, fold_angle_rad):
+    def closure_from_fold_angle(self, fold_angle_rad: npt.ArrayLike) -> FloatArray:
         """Closure for apex fold angles [rad] between the open and closed limits.
 
         A fold angle within :data:`CLOSURE_ROUNDING` (in closure) outside them is the limit.

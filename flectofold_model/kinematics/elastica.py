@@ -24,12 +24,14 @@ per panel and station); lengths in metres, angles in radians.
 """
 
 from dataclasses import dataclass
+from typing import Callable
 
 import numpy as np
+import numpy.typing as npt
 from scipy.optimize.elementwise import find_root
 from scipy.special import ellipe, ellipj, ellipk, elliprd, elliprf
 
-from flectofold_model._validate import in_range, real_array
+from flectofold_model._validate import FloatArray, FloatOrArray, in_range, real_array
 
 #: Largest end rotation the model accepts: beyond 90 degrees the strip is no longer a mid-rib.
 MAX_END_ROTATION_RAD = np.pi / 2
@@ -37,6 +39,8 @@ MAX_END_ROTATION_RAD = np.pi / 2
 K_MAX = float(np.sin(MAX_END_ROTATION_RAD / 2))
 
 _ROOT_TOLERANCES = {'xatol': 1e-15, 'xrtol': 4 * np.finfo(float).eps}
+#: A forward map ``f(k, length_m)`` of the elastica.
+_Forward = Callable[[FloatOrArray, FloatOrArray], FloatArray]
 
 
 @dataclass(frozen=True)
@@ -53,49 +57,51 @@ class ElasticaShape:
     """``z / sag``, which stays defined at zero sag (``cos(pi s / L)`` there)."""
 
 
-def shortening_from_k(k, length_m):
+def shortening_from_k(k: FloatOrArray, length_m: FloatOrArray) -> FloatArray:
     """Support displacement ``Delta = 2 L (1 - E/K)`` [m] for elliptic modulus ``k``."""
     m = np.square(k)
     return 2.0 * length_m * (1.0 - ellipe(m) / ellipk(m))
 
 
-def sag_from_k(k, length_m):
+def sag_from_k(k: FloatOrArray, length_m: FloatOrArray) -> FloatArray:
     """Mid-span sag ``delta = k L / K`` [m]."""
     return k * length_m / ellipk(np.square(k))
 
 
-def peak_curvature_from_k(k, length_m):
+def peak_curvature_from_k(k: FloatOrArray, length_m: FloatOrArray) -> FloatArray:
     """Mid-span curvature ``kappa0 = 4 k K / L`` [1/m]; the curvature is zero at the pins."""
     return 4.0 * k * ellipk(np.square(k)) / length_m
 
 
-def end_rotation_from_k(k):
+def end_rotation_from_k(k: FloatOrArray) -> FloatArray:
     """End rotation ``alpha = 2 asin(k)`` [rad] of the strip at the pins."""
     return 2.0 * np.arcsin(k)
 
 
-def load_factor_from_k(k):
+def load_factor_from_k(k: FloatOrArray) -> FloatArray:
     """``P L**2 / EI = 4 K**2``, the dimensionless axial load (``pi**2`` at first buckling)."""
     return 4.0 * np.square(ellipk(np.square(k)))
 
 
-def k_from_shortening(shortening_m, length_m):
+def k_from_shortening(shortening_m: npt.ArrayLike, length_m: npt.ArrayLike) -> FloatArray:
     """Invert :func:`shortening_from_k`: the modulus for a support displacement [m]."""
     return _checked_inverse(shortening_from_k, 'shortening_m', shortening_m, length_m)
 
 
-def k_from_sag(sag_m, length_m):
+def k_from_sag(sag_m: npt.ArrayLike, length_m: npt.ArrayLike) -> FloatArray:
     """Invert :func:`sag_from_k`: the modulus for a mid-span sag [m]."""
     return _checked_inverse(sag_from_k, 'sag_m', sag_m, length_m)
 
 
-def k_from_peak_curvature(curvature_per_m, length_m):
+def k_from_peak_curvature(curvature_per_m: npt.ArrayLike,
+                          length_m: npt.ArrayLike) -> FloatArray:
     """Invert :func:`peak_curvature_from_k`: the modulus for a mid-span curvature [1/m]."""
     return _checked_inverse(peak_curvature_from_k, 'curvature_per_m', curvature_per_m,
                             length_m)
 
 
-def _checked_inverse(forward, name, value, length_m):
+def _checked_inverse(forward: _Forward, name: str, value: npt.ArrayLike,
+                     length_m: npt.ArrayLike) -> FloatArray:
     """Check ``value`` lies within what ``forward`` reaches at ``K_MAX``, then invert it."""
     length_m = real_array('length_m', length_m)
     value = real_array(name, value)
@@ -103,7 +109,7 @@ def _checked_inverse(forward, name, value, length_m):
     return _invert(forward, value, length_m)
 
 
-def _invert(forward, target, length_m):
+def _invert(forward: _Forward, target: FloatArray, length_m: FloatArray) -> FloatArray:
     """Solve ``forward(k, L) = target`` elementwise; every forward map is monotone in k."""
     target, length_m = np.broadcast_arrays(target, length_m)
     result = find_root(
@@ -117,7 +123,8 @@ def _invert(forward, target, length_m):
     return np.clip(result.x, 0.0, K_MAX)
 
 
-def elastica_shape(k, length_m, arc_length_m):
+def elastica_shape(k: npt.ArrayLike, length_m: npt.ArrayLike,
+                   arc_length_m: npt.ArrayLike) -> ElasticaShape:
     """Sample pinned elasticas at arc lengths ``s`` measured from mid-span.
 
     ``k`` and ``length_m`` have one value per panel, shape ``(N,)``; ``arc_length_m`` has
@@ -136,7 +143,7 @@ def elastica_shape(k, length_m, arc_length_m):
     return ElasticaShape(x_m=x_m, z_m=z_m, slope_rad=slope_rad, normalized_height=cn)
 
 
-def _incomplete_e_of_amplitude(sn, cn, m):
+def _incomplete_e_of_amplitude(sn: FloatArray, cn: FloatArray, m: FloatArray) -> FloatArray:
     """``E(am(u) | m)`` from ``sn(u)`` and ``cn(u)`` for ``|u| <= K``, in Carlson's form.
 
     ``E(phi | m) = sin(phi) R_F(c, d, 1) - m sin(phi)**3 R_D(c, d, 1) / 3`` with

@@ -8,20 +8,27 @@ that fixes a panel's shape: the mid-rib's elastica modulus for a quad panel, the
 [m] for a hexagonal one. Code that only needs those works for both kinds.
 """
 
+from typing import Any, Callable, Iterable, Union
+
 from flectofold_model.kinematics.closure import FoldModel
 from flectofold_model.kinematics.hexagon import (HexagonBatch, HexagonFoldModel, HexagonPanel,
                                                  HexagonTopology)
 from flectofold_model.kinematics.mesh import MeshTopology
 from flectofold_model.kinematics.panel import PanelBatch, PanelGeometry
 
+#: A panel of either kind, a batch of either kind, and the fold model of either kind.
+Panel = Union[PanelGeometry, HexagonPanel]
+Batch = Union[PanelBatch, HexagonBatch]
+AnyFoldModel = Union[FoldModel, HexagonFoldModel]
+
 #: Panel kind name -> (panel class, batch class, fold model class).
-KINDS = {
+KINDS: dict[str, tuple[type[Panel], type[Batch], Callable[[Any], AnyFoldModel]]] = {
     'quad': (PanelGeometry, PanelBatch, FoldModel),
     'hexagon': (HexagonPanel, HexagonBatch, HexagonFoldModel),
 }
 
 
-def panel_kind(panel):
+def panel_kind(panel: object) -> str:
     """``'quad'`` or ``'hexagon'`` for a panel or a batch; ``TypeError`` for anything else."""
     for name, (panel_class, batch_class, _) in KINDS.items():
         if isinstance(panel, (panel_class, batch_class)):
@@ -30,7 +37,7 @@ def panel_kind(panel):
                     f'({", ".join(KINDS)})')
 
 
-def batch_of(panels):
+def batch_of(panels: Iterable[Panel]) -> Batch:
     """Stack panels of one kind into that kind's batch; mixed kinds raise ``ValueError``."""
     panels = list(panels)
     if not panels:
@@ -42,7 +49,7 @@ def batch_of(panels):
     return KINDS[kinds.pop()][1].from_panels(panels)
 
 
-def fold_model_of(panels):
+def fold_model_of(panels: Union[Batch, Iterable[Panel]]) -> AnyFoldModel:
     """Build the fold model of a batch, or of an iterable of panels of one kind."""
     if isinstance(panels, (PanelBatch, HexagonBatch)):
         batch = panels
@@ -51,7 +58,7 @@ def fold_model_of(panels):
     return KINDS[panel_kind(batch)][2](batch)
 
 
-def is_topology_for(batch, topology):
+def is_topology_for(batch: object, topology: object) -> bool:
     """Whether ``topology`` fits the kind of ``batch``."""
     wanted = HexagonTopology if isinstance(batch, HexagonBatch) else MeshTopology
     return isinstance(topology, wanted)

@@ -16,9 +16,12 @@ the vertex normals point out of that side.
 """
 
 from dataclasses import dataclass
+from typing import Any, Iterable, Optional
 
 import numpy as np
+import numpy.typing as npt
 
+from flectofold_model._validate import FloatArray, FloatOrArray, IntArray
 from flectofold_model.kinematics import elastica
 from flectofold_model.kinematics.panel import PanelBatch
 from flectofold_model.kinematics.reflection import crease_flat_y, fold_plane, reflect
@@ -36,7 +39,7 @@ class FoldMesh:
     """(F, 3) vertex indices, counter-clockwise seen from the front."""
 
 
-def check_counts(topology, least_counts):
+def check_counts(topology: object, least_counts: Iterable[tuple[str, int]]) -> None:
     """Refuse a topology field that is not an integer of at least its least count."""
     for name, least in least_counts:
         value = getattr(topology, name)
@@ -53,36 +56,36 @@ class MeshTopology:
     midrib_columns: int
     flap_columns: int
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         check_counts(self, (('stations', 2), ('midrib_columns', 2), ('flap_columns', 2)))
 
     @property
-    def vertex_count(self):
+    def vertex_count(self) -> int:
         """Vertices per panel."""
         return self.stations * (self.midrib_columns + 2 * self.flap_columns)
 
     @property
-    def midrib(self):
+    def midrib(self) -> slice:
         """Slice of the mid-rib's vertices."""
         return slice(0, self.stations * self.midrib_columns)
 
-    def flap(self, side):
+    def flap(self, side: int) -> slice:
         """Slice of the vertices of the flap on ``side`` (+1 or -1)."""
         start = self.stations * (self.midrib_columns + (0 if side > 0 else self.flap_columns))
         return slice(start, start + self.stations * self.flap_columns)
 
     @property
-    def midrib_fractions(self):
+    def midrib_fractions(self) -> FloatArray:
         """Column positions across the mid-rib: -1 on the -y crease, +1 on the +y crease."""
         return np.linspace(-1.0, 1.0, self.midrib_columns)
 
     @property
-    def flap_fractions(self):
+    def flap_fractions(self) -> FloatArray:
         """Column positions across a flap: 0 on the crease, 1 on the panel edge."""
         return np.linspace(0.0, 1.0, self.flap_columns)
 
     @property
-    def station_fractions(self):
+    def station_fractions(self) -> FloatArray:
         """Row positions along the mid-rib as fractions of its length, -1/2 ... 1/2.
 
         Exactly antisymmetric, so a shape evaluated on one half mirrors onto the other.
@@ -91,7 +94,7 @@ class MeshTopology:
         return (even - even[::-1]) / 2
 
     @property
-    def faces(self):
+    def faces(self) -> npt.NDArray[np.int32]:
         """(F, 3) int32 triangle indices of one panel."""
         blocks = [_grid_faces(self.stations, self.midrib_columns, 0, flip=False),
                   _grid_faces(self.stations, self.flap_columns, self.flap(+1).start, flip=False),
@@ -99,7 +102,7 @@ class MeshTopology:
         return np.concatenate(blocks).astype(np.int32)
 
 
-def _grid_faces(rows, columns, base, flip):
+def _grid_faces(rows: int, columns: int, base: int, flip: bool) -> IntArray:
     index = base + np.arange(rows * columns).reshape(rows, columns)
     a, b = index[:-1, :-1], index[1:, :-1]
     c, d = index[1:, 1:], index[:-1, 1:]
@@ -113,7 +116,8 @@ def _grid_faces(rows, columns, base, flip):
 DEFAULT_TOPOLOGY = MeshTopology(stations=21, midrib_columns=7, flap_columns=17)
 
 
-def flat_coordinates(batch, k, topology=DEFAULT_TOPOLOGY):
+def flat_coordinates(batch: PanelBatch, k: npt.ArrayLike,
+                     topology: MeshTopology = DEFAULT_TOPOLOGY) -> FloatArray:
     """(N, V, 2) coordinates of every vertex in the unfolded sheet [m] (x along, y across).
 
     Along the mid-rib a vertex sits at the polyline length of the folded mid-rib from mid-span
@@ -137,7 +141,8 @@ def flat_coordinates(batch, k, topology=DEFAULT_TOPOLOGY):
     return flat
 
 
-def fold_mesh(batch, k, topology=DEFAULT_TOPOLOGY, dtype=np.float64, out=None):
+def fold_mesh(batch: PanelBatch, k: npt.ArrayLike, topology: MeshTopology = DEFAULT_TOPOLOGY,
+              dtype: npt.DTypeLike = np.float64, out: Optional[FoldMesh] = None) -> FoldMesh:
     """Folded meshes of every panel of ``batch`` at elastica moduli ``k`` (shape ``(N,)``).
 
     Every row of a block is straight (a generator of the mid-rib cylinder, or its mirror
@@ -154,7 +159,7 @@ def fold_mesh(batch, k, topology=DEFAULT_TOPOLOGY, dtype=np.float64, out=None):
     front = np.stack([-np.sin(shape.slope_rad), np.zeros_like(shape.slope_rad),
                       np.cos(shape.slope_rad)], axis=-1)
 
-    def on_midrib(y):
+    def on_midrib(y: FloatOrArray) -> FloatArray:
         return np.stack([shape.x_m, np.broadcast_to(y, shape.x_m.shape), shape.z_m], axis=-1)
 
     _fill_rows(_block(vertices, topology.midrib, topology.midrib_columns),
@@ -176,7 +181,8 @@ def fold_mesh(batch, k, topology=DEFAULT_TOPOLOGY, dtype=np.float64, out=None):
     return FoldMesh(vertices=vertices, normals=normals, faces=topology.faces)
 
 
-def _station_shape(batch, k, topology):
+def _station_shape(batch: PanelBatch, k: FloatArray,
+                   topology: MeshTopology) -> elastica.ElasticaShape:
     """Evaluate the mid-rib elastica on one half of the stations and mirror it.
 
     The pinned elastica is symmetric about mid-span: ``x`` and the slope change sign, ``z``
@@ -193,7 +199,8 @@ def _station_shape(batch, k, topology):
                                   normalized_height=half.normalized_height[:, index])
 
 
-def output_arrays(out, shape, dtype):
+def output_arrays(out: Optional[FoldMesh], shape: tuple[int, ...],
+                  dtype: npt.DTypeLike) -> tuple[npt.NDArray[Any], npt.NDArray[Any]]:
     """Vertex and normal arrays of ``shape``: fresh, or those of ``out`` (a checked FoldMesh)."""
     if out is None:
         return np.empty(shape, dtype=dtype), np.empty(shape, dtype=dtype)
@@ -206,25 +213,27 @@ def output_arrays(out, shape, dtype):
     return out.vertices, out.normals
 
 
-def _fill_rows(block, start, end, fractions):
+def _fill_rows(block: npt.NDArray[Any], start: FloatArray, end: FloatArray,
+               fractions: FloatArray) -> None:
     """Fill ``block`` (N, rows, columns, 3) with the points ``start + (end - start) t``."""
     coefficients = np.stack([start, end - start], axis=-2).astype(block.dtype)
     basis = np.stack([np.ones_like(fractions), fractions], axis=-1).astype(block.dtype)
     np.matmul(basis, coefficients, out=block)
 
 
-def _fill_normals(block, row_normals):
+def _fill_normals(block: npt.NDArray[Any], row_normals: FloatArray) -> None:
     """Give every vertex of a row (N, rows, columns, 3) its row's normal (N, rows, 3)."""
     for axis in range(3):
         block[..., axis] = row_normals[:, :, None, axis]
 
 
-def _flap_flat_y(batch, crease_y, topology):
+def _flap_flat_y(batch: PanelBatch, crease_y: FloatArray,
+                 topology: MeshTopology) -> FloatArray:
     edge = batch.width_m[:, None, None] / 2
     return crease_y[..., None] + (edge - crease_y[..., None]) * topology.flap_fractions
 
 
-def _block(array, vertex_slice, columns):
+def _block(array: npt.NDArray[Any], vertex_slice: slice, columns: int) -> npt.NDArray[Any]:
     """View of a vertex block as ``(N, stations, columns, dims)``."""
     block = array[:, vertex_slice]
     return block.reshape(array.shape[0], -1, columns, array.shape[-1])

@@ -10,10 +10,12 @@ sag of the arc. The flaps are the rest of the sheet beyond the fold lines.
 
 from dataclasses import dataclass
 import math
+from typing import Any, overload, Self
 
 import numpy as np
+import numpy.typing as npt
 
-from flectofold_model._validate import real_fields, real_scalar
+from flectofold_model._validate import FloatArray, real_fields, real_scalar
 from flectofold_model.kinematics.batch import PanelArrays
 
 
@@ -36,13 +38,13 @@ class PanelGeometry:
     closed_clearance_m: float = 0.02
     """Gap left between the two flap edges at full closure [m]."""
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         real_fields(self)
         self._check_signs()
         self._check_fold_lines()
         self._check_flaps()
 
-    def _check_signs(self):
+    def _check_signs(self) -> None:
         for name in ('length_m', 'width_m', 'fold_radius_m', 'midrib_width_m', 'hinge_width_m'):
             if getattr(self, name) <= 0.0:
                 raise ValueError(f'{name} must be positive, got {getattr(self, name):g} m')
@@ -54,7 +56,7 @@ class PanelGeometry:
                 f'prefold_rad must lie in [0, pi/2) so the panel folds toward closing, '
                 f'got {self.prefold_rad:g} rad')
 
-    def _check_fold_lines(self):
+    def _check_fold_lines(self) -> None:
         half_length = self.length_m / 2
         if self.fold_radius_m <= half_length:
             raise ValueError(
@@ -68,7 +70,7 @@ class PanelGeometry:
                 f'{self.fold_radius_m:g} m: the two fold-line arcs span {lens_width:.4g} m and '
                 f'would cross before the supports; give more than that')
 
-    def _check_flaps(self):
+    def _check_flaps(self) -> None:
         needed = self.midrib_width_m + 2 * self.hinge_width_m
         if needed >= self.width_m:
             raise ValueError(
@@ -80,23 +82,24 @@ class PanelGeometry:
                 f'close ({self.width_m - self.midrib_width_m:.4g} m)')
 
     @property
-    def fold_line_sag_m(self):
+    def fold_line_sag_m(self) -> float:
         """Sag ``h_c`` of each fold-line arc over the mid-rib length [m]."""
         return fold_line_sag(self.fold_radius_m, self.length_m)
 
     @property
-    def midrib_end_width_m(self):
+    def midrib_end_width_m(self) -> float:
         """Width of the mid-rib at the supports B and C [m]."""
         return self.midrib_width_m - 2 * self.fold_line_sag_m
 
     @property
-    def flap_width_m(self):
+    def flap_width_m(self) -> float:
         """Width of each flap at mid-span, fold line to edge [m]."""
         return (self.width_m - self.midrib_width_m) / 2
 
     @classmethod
-    def with_lens_midrib(cls, length_m, width_m, fold_radius_m, end_width_m, hinge_width_m,
-                         **kwargs):
+    def with_lens_midrib(cls, length_m: float, width_m: float, fold_radius_m: float,
+                         end_width_m: float, hinge_width_m: float,
+                         **kwargs: float) -> Self:
         """Build a panel whose mid-rib width follows from the fold radius.
 
         The fold-line arcs meet the supports ``end_width_m`` apart, so the mid-rib is
@@ -112,7 +115,15 @@ class PanelGeometry:
                    hinge_width_m=hinge_width_m, **kwargs)
 
 
-def fold_line_sag(radius_m, chord_m):
+@overload
+def fold_line_sag(radius_m: float, chord_m: float) -> float: ...
+
+
+@overload
+def fold_line_sag(radius_m: FloatArray, chord_m: npt.ArrayLike) -> FloatArray: ...
+
+
+def fold_line_sag(radius_m: npt.ArrayLike, chord_m: npt.ArrayLike) -> Any:
     """Sag of a circular arc of ``radius_m`` over ``chord_m`` [m]; NaN if it cannot span it."""
     radicand = np.square(radius_m) - np.square(chord_m) / 4
     with np.errstate(invalid='ignore'):
@@ -148,16 +159,16 @@ class PanelBatch(PanelArrays):
     closed_clearance_m: np.ndarray
 
     @property
-    def fold_line_sag_m(self):
+    def fold_line_sag_m(self) -> FloatArray:
         """``h_c`` per panel [m]."""
         return fold_line_sag(self.fold_radius_m, self.length_m)
 
     @property
-    def apex_y_m(self):
+    def apex_y_m(self) -> FloatArray:
         """Distance of the fold lines from the axis at mid-span (the apex M) [m]."""
         return self.midrib_width_m / 2
 
     @property
-    def end_y_m(self):
+    def end_y_m(self) -> FloatArray:
         """Distance of the fold lines from the axis at the supports [m]."""
         return self.midrib_width_m / 2 - self.fold_line_sag_m

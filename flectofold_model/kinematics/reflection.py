@@ -25,22 +25,26 @@ The three-point plane is the one the paper uses, and the one this package uses t
 """
 
 import numpy as np
+import numpy.typing as npt
 from scipy.special import ellipk
 
+from flectofold_model._validate import FloatArray, FloatOrArray
 from flectofold_model.kinematics.elastica import elastica_shape
+from flectofold_model.kinematics.panel import PanelBatch
 
 
-def apex_fold_angle(batch, sag_m):
+def apex_fold_angle(batch: PanelBatch, sag_m: npt.ArrayLike) -> FloatArray:
     """Fold angle at the apex, ``2 atan(delta / h_c)`` [rad], for mid-rib sags [m]."""
     return 2.0 * np.arctan2(sag_m, batch.fold_line_sag_m)
 
 
-def sag_for_apex_fold_angle(batch, fold_angle_rad):
+def sag_for_apex_fold_angle(batch: PanelBatch, fold_angle_rad: FloatOrArray) -> FloatArray:
     """Mid-rib sag [m] that gives an apex fold angle [rad]; inverse of :func:`apex_fold_angle`."""
     return batch.fold_line_sag_m * np.tan(fold_angle_rad / 2.0)
 
 
-def fold_plane(batch, sag_m, side):
+def fold_plane(batch: PanelBatch, sag_m: npt.ArrayLike,
+               side: int) -> tuple[FloatArray, FloatArray]:
     """Mirror plane of the flap on ``side`` (+1 for +y, -1 for -y) as ``(normal, offset)``.
 
     ``normal`` has shape ``(N, 3)``; points ``p`` on the plane satisfy ``normal . p = offset``.
@@ -55,29 +59,29 @@ def fold_plane(batch, sag_m, side):
     return normal, offset
 
 
-def reflect(points, normal, offset):
+def reflect(points: FloatArray, normal: FloatArray, offset: FloatOrArray) -> FloatArray:
     """Mirror ``points`` (..., 3) across planes ``normal . p = offset`` (broadcasting)."""
     distance = np.einsum('...i,...i->...', points, normal) - offset
     return points - 2.0 * distance[..., None] * normal
 
 
-def crease_flat_y(batch, normalized_height):
+def crease_flat_y(batch: PanelBatch, normalized_height: FloatArray) -> FloatArray:
     """Flat-sheet y of the +y crease at the stations where ``z / delta`` is given [m]."""
     return batch.end_y_m[..., None] + batch.fold_line_sag_m[..., None] * normalized_height
 
 
-def drawn_fold_line_y(batch, arc_length_m):
+def drawn_fold_line_y(batch: PanelBatch, arc_length_m: npt.ArrayLike) -> FloatArray:
     """Flat-sheet y of the +y fold line as drawn (the circular arc) [m]."""
     radius = batch.fold_radius_m[..., None]
     return batch.apex_y_m[..., None] - radius + np.sqrt(radius**2 - np.square(arc_length_m))
 
 
-def crease_stations(batch, count):
+def crease_stations(batch: PanelBatch, count: int) -> FloatArray:
     """``count`` arc lengths per panel, evenly from support to support, shape ``(N, count)``."""
     return batch.length_m[:, None] * np.linspace(-0.5, 0.5, count)
 
 
-def crease_mismatch_m(batch, k, count=201):
+def crease_mismatch_m(batch: PanelBatch, k: npt.ArrayLike, count: int = 201) -> FloatArray:
     """Largest gap between the reflected crease and the drawn arc in the flat sheet [m]."""
     stations = crease_stations(batch, count)
     shape = elastica_shape(k, batch.length_m, stations)
@@ -85,7 +89,8 @@ def crease_mismatch_m(batch, k, count=201):
     return np.max(np.abs(gap), axis=-1)
 
 
-def fold_angle_along_crease(batch, k, sag_m, arc_length_m):
+def fold_angle_along_crease(batch: PanelBatch, k: npt.ArrayLike, sag_m: npt.ArrayLike,
+                            arc_length_m: npt.ArrayLike) -> FloatArray:
     """Fold angle [rad] at crease stations ``s`` (from mid-span), shape ``(N, n)``."""
     shape = elastica_shape(k, batch.length_m, arc_length_m)
     half_angle = np.arctan2(sag_m, batch.fold_line_sag_m)[..., None]
@@ -93,13 +98,13 @@ def fold_angle_along_crease(batch, k, sag_m, arc_length_m):
     return 2.0 * np.arccos(np.clip(cosine, -1.0, 1.0))
 
 
-def local_law_apex_fold_angle(batch, k):
+def local_law_apex_fold_angle(batch: PanelBatch, k: FloatOrArray) -> FloatArray:
     """Apex fold angle [rad] the local law ``2 atan(kappa0 R)`` would give (for comparison)."""
     peak_curvature = 4.0 * k * ellipk(np.square(k)) / batch.length_m
     return 2.0 * np.arctan(peak_curvature * batch.fold_radius_m)
 
 
-def flap_tip(batch, sag_m, side):
+def flap_tip(batch: PanelBatch, sag_m: npt.ArrayLike, side: int) -> FloatArray:
     """Position (N, 3) of flap tip A (side +1) or D (side -1): mid-span of the flap's edge.
 
     Before reflection the tip sits on the extended mid-rib at ``(0, +-W/2, delta)``.

@@ -7,6 +7,10 @@ reading). The structural sheet is coloured by strain against the allowable strai
 """
 
 import numpy as np
+import numpy.typing as npt
+
+#: uint8 RGBA colours, one row per panel or vertex.
+RgbaArray = npt.NDArray[np.uint8]
 
 FAULT_RGBA = (215, 38, 38, 255)
 #: A panel with no state yet (or, coloured by pressure, no pressure reading).
@@ -19,12 +23,12 @@ SUN_RGBA = (255, 190, 40, 255)
 _RAMP = np.array([[236, 226, 198], [122, 170, 160], [24, 78, 104]], dtype=float)
 
 
-def ramp_colours(fractions):
+def ramp_colours(fractions: npt.ArrayLike) -> RgbaArray:
     """(N, 4) uint8 RGBA of fractions in [0, 1] on the open-to-closed ramp (clipped)."""
     return _on_ramp(_RAMP, np.clip(np.asarray(fractions, dtype=float), 0.0, 1.0))
 
 
-def _on_ramp(ramp, fraction):
+def _on_ramp(ramp: npt.NDArray[np.float64], fraction: npt.NDArray[np.float64]) -> RgbaArray:
     """Opaque uint8 RGBA of fractions in [0, 1] of a ramp, linear between its colours."""
     position = fraction * (len(ramp) - 1)
     low = np.minimum(position.astype(int), len(ramp) - 2)
@@ -40,7 +44,7 @@ _STRAIN_RAMP = np.array([[46, 139, 87], [240, 190, 40], [200, 30, 30]], dtype=fl
 STRAIN_RED_MULTIPLE = 10.0
 
 
-def strain_colours(strain, allowable_strain):
+def strain_colours(strain: npt.ArrayLike, allowable_strain: float) -> RgbaArray:
     """(N, 4) uint8 RGBA of surface strains against the allowable strain.
 
     Linear from green (no strain) to amber at the allowable, then on a logarithmic scale to
@@ -55,12 +59,13 @@ def strain_colours(strain, allowable_strain):
     return _on_ramp(_STRAIN_RAMP, np.clip(position, 0.0, 2.0) / 2.0)
 
 
-def ramp_colour(fraction):
+def ramp_colour(fraction: float) -> tuple[int, ...]:
     """RGBA (uint8 tuple) of a fraction in [0, 1] on the open-to-closed ramp (clipped)."""
     return tuple(int(c) for c in ramp_colours([float(fraction)])[0])
 
 
-def panel_colours(fraction, seen, fault, known=True):
+def panel_colours(fraction: npt.NDArray[np.float64], seen: npt.NDArray[np.bool_],
+                  fault: npt.ArrayLike, known: npt.ArrayLike = True) -> RgbaArray:
     """(N, 4) RGBA of panels: ``fraction`` on the ramp, red on a fault, else grey unseen.
 
     ``seen``: the panel has reported; ``fault``: its fault code (0: none); ``known``: its

@@ -48,7 +48,7 @@ REPLAY = Qos(depth=100)
 RECORDING_DEPTH = 1000
 
 
-def recording_qos(latched, reliable):
+def recording_qos(latched: bool, reliable: bool) -> Qos:
     """Return the recorder's subscription QoS for a latched / reliable topic."""
     return Qos(depth=RECORDING_DEPTH, reliable=reliable, latched=latched)
 
@@ -70,17 +70,17 @@ class PanelTopic:
     msgtype: str
     qos: Qos = STREAM
 
-    def of(self, panel_id):
+    def of(self, panel_id: str) -> Topic:
         """Return the :class:`Topic` of panel ``panel_id``."""
         return Topic(panel_topic_name(panel_id, self.suffix), self.msgtype, self.qos)
 
 
-def panel_namespace(panel_id):
+def panel_namespace(panel_id: str) -> str:
     """``/facade/<panel id>``: the namespace of a panel's node and topics."""
     return f'{FACADE_NAMESPACE}/{panel_id}'
 
 
-def panel_topic_name(panel_id, suffix):
+def panel_topic_name(panel_id: str, suffix: str) -> str:
     """``/facade/<panel id>/<suffix>``."""
     return f'{panel_namespace(panel_id)}/{suffix}'
 
@@ -155,7 +155,7 @@ RESET_FAULTS_SERVICE = 'reset_faults'
 RESET_FAULTS_TYPE = 'std_srvs/srv/Trigger'
 
 
-def reset_faults_service(panel_id):
+def reset_faults_service(panel_id: str) -> str:
     """``/facade/<panel id>/reset_faults``."""
     return panel_topic_name(panel_id, RESET_FAULTS_SERVICE)
 
@@ -164,7 +164,7 @@ def reset_faults_service(panel_id):
 FLAPS = {'quad': ('left', 'right'), 'hexagon': ('0', '1', '2')}
 
 
-def flap_joint_names(panel_id, kind='quad'):
+def flap_joint_names(panel_id: str, kind: str = 'quad') -> list[str]:
     """``joint_states`` names of a panel's flaps: two for a quad, three for a hexagon."""
     return [f'{panel_id}_flap_{flap}' for flap in FLAPS[kind]]
 

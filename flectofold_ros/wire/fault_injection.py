@@ -10,14 +10,34 @@ from ``/facade/inject_fault`` with it, and the fault script checks its entries w
 from dataclasses import dataclass, field
 import math
 from numbers import Real
+from typing import Iterable, Protocol, Sequence
 
 import numpy as np
 
+from flectofold_model._validate import BoolArray, IntArray
 from flectofold_ros.wire import contract
 
 
 class FaultRequestError(ValueError):
     """A fault request refused; the message says why."""
+
+
+class Plant(Protocol):
+    """What a simulated plant takes faults with, each for the panels of a boolean mask (N,)."""
+
+    def clear_faults(self) -> None: ...
+
+    def inject_leak(self, panels: BoolArray, conductance_m3_s_pa: float) -> None: ...
+
+    def inject_sensor_noise(self, panels: BoolArray, noise_pa: float) -> None: ...
+
+    def inject_sensor_stuck(self, panels: BoolArray) -> None: ...
+
+    def inject_sensor_dropout(self, panels: BoolArray) -> None: ...
+
+    def inject_supply_loss(self, panels: BoolArray) -> None: ...
+
+    def inject_fill_valve_stuck_open(self, panels: BoolArray) -> None: ...
 
 
 @dataclass(frozen=True)
@@ -47,7 +67,7 @@ class Kind:
     optional: tuple = (DURATION,)
     clears: tuple = ()
 
-    def figures(self):
+    def figures(self) -> dict[str, Figure]:
         return {figure.name: figure for figure in (*self.required, *self.optional)}
 
 
@@ -81,22 +101,23 @@ class FaultRequest:
     values: dict = field(default_factory=dict)
 
     @property
-    def every_panel(self):
+    def every_panel(self) -> bool:
         return self.panels == (contract.ALL_PANELS,)
 
     @property
-    def duration_s(self):
+    def duration_s(self) -> float:
         """How long the fault lasts [s of ROS time]; inf: until restored."""
         return self.values.get(DURATION.name, math.inf)
 
-    def describe(self):
+    def describe(self) -> str:
         """One line: ``leak (conductance_m3_s_pa=2e-08) on r00c01, r00c02``."""
         figures = ', '.join(f'{name}={value:g}' for name, value in self.values.items())
         panels = 'every panel' if self.every_panel else _span(self.panels)
         return f'{self.kind}{f" ({figures})" if figures else ""} on {panels}'
 
 
-def parse_request(kind, panels, values, facade_ids):
+def parse_request(kind: object, panels: object, values: Iterable[tuple[str, object]],
+                  facade_ids: Sequence[str]) -> FaultRequest:
     """Check a request against the facade's panel ids; return the :class:`FaultRequest`.
 
     ``panels``: ``'*'``, comma-separated ids or a list of ids; ``values``: ``(name, value)``
@@ -108,7 +129,7 @@ def parse_request(kind, panels, values, facade_ids):
     return FaultRequest(kind, check_panels(panels, facade_ids), check_values(kind, values))
 
 
-def check_panels(panels, facade_ids):
+def check_panels(panels: object, facade_ids: Sequence[str]) -> tuple[str, ...]:
     """Return the panel ids of a request as a tuple, or ``('*',)`` for every panel."""
     if panels == contract.ALL_PANELS:
         return (contract.ALL_PANELS,)
@@ -133,12 +154,13 @@ def check_panels(panels, facade_ids):
     return tuple(panels)
 
 
-def check_values(kind, values):
+def check_values(kind: str, values: Iterable[tuple[str, object]]) -> dict[str, float]:
     """Return a kind's figures ``{name: float}`` from ``(name, value)`` pairs, checked."""
     values = list(values)
     if len(values) > MAX_VALUES:
         raise FaultRequestError(f'{len(values)} values; a fault takes at most {MAX_VALUES}')
-    figures, checked = KINDS[kind].figures(), {}
+    figures = KINDS[kind].figures()
+    checked: dict[str, float] = {}
     for name, value in values:
         figure = figures.get(name)
         if figure is None:
@@ -153,7 +175,7 @@ def check_values(kind, values):
     return checked
 
 
-def _figure(figure, value):
+def _figure(figure: Figure, value: object) -> float:
     if isinstance(value, str):
         text = value.strip()
         if len(text) > MAX_VALUE_CHARACTERS:
@@ -171,7 +193,7 @@ def _figure(figure, value):
     return value
 
 
-def request_fields(request):
+def request_fields(request: FaultRequest) -> tuple[str, str, list[tuple[str, str]]]:
     """``(name, hardware_id, [(key, value text)])`` of the message that carries ``request``."""
     values = [(name, repr(value)) for name, value in request.values.items()]
     return request.kind, ','.join(request.panels), values
@@ -185,7 +207,7 @@ class FaultInjector:
     which is how one panel's faults are taken away while the others' stay.
     """
 
-    def __init__(self, plant, panel_ids):
+    def __init__(self, plant: Plant, panel_ids: Iterable[str]) -> None:
         self.plant = plant
         self.panel_ids = list(panel_ids)
         self._position = {panel_id: index for index, panel_id in enumerate(self.panel_ids)}
@@ -195,14 +217,14 @@ class FaultInjector:
         self._figure = {kind: np.zeros(count) for kind in INJECTED}
         self._text = ['none'] * count
 
-    def indices(self, request):
+    def indices(self, request: FaultRequest) -> IntArray:
         """Return the indices of the panels of ``request`` this plant holds (maybe none)."""
         if request.every_panel:
             return np.arange(len(self.panel_ids))
         return np.array([self._position[p] for p in request.panels if p in self._position],
                         dtype=np.int64)
 
-    def apply(self, request, now_s):
+    def apply(self, request: FaultRequest, now_s: float) -> IntArray:
         """Inject or clear ``request`` on this plant's panels of it; return their indices.
 
         ``now_s``: the ROS time [s] a timed fault counts from.
@@ -222,9 +244,9 @@ class FaultInjector:
         self._install(indices)
         return indices
 
-    def expire(self, now_s):
+    def expire(self, now_s: float) -> list[tuple[str, str]]:
         """End the timed faults due by ``now_s`` [s]; return ``[(panel id, kind)]`` ended."""
-        ended = []
+        ended: list[tuple[str, str]] = []
         for kind, until in self._until.items():
             due = np.flatnonzero(until <= now_s)
             if due.size:
@@ -234,15 +256,15 @@ class FaultInjector:
             self._install(np.array(sorted({self._position[p] for p, _ in ended})))
         return ended
 
-    def injected(self, index):
+    def injected(self, index: int) -> str:
         """Return what panel ``index`` has injected: ``'leak(2e-08), sensor_stuck'``, ``none``."""
         return self._text[index]
 
-    def injected_kinds(self, index):
+    def injected_kinds(self, index: int) -> list[str]:
         """Return the kinds injected into panel ``index`` now."""
         return [kind for kind, until in self._until.items() if not math.isnan(until[index])]
 
-    def _install(self, changed):
+    def _install(self, changed: IntArray) -> None:
         plant = self.plant
         plant.clear_faults()
         for kind, until in self._until.items():
@@ -273,10 +295,10 @@ _PLANT_METHOD = {
 }
 
 
-def _span(ids):
+def _span(ids: Sequence[str]) -> str:
     return ', '.join(ids) if len(ids) <= 6 else f'{ids[0]} ... {ids[-1]} ({len(ids)} panels)'
 
 
-def _quote(value):
+def _quote(value: object) -> str:
     text = repr(value)
     return text if len(text) <= 40 else f'{text[:37]}...'

@@ -8,9 +8,14 @@ into ``visualization_msgs/Marker`` messages.
 """
 
 import numpy as np
+import numpy.typing as npt
 
+from flectofold_model._validate import FloatArray, IntArray
+from flectofold_model.facade.description import Facade
 from flectofold_model.facade.folded_mesh import FacadeMesher
 from flectofold_ros.wire import colours, panel_states
+from flectofold_ros.wire.colours import RgbaArray
+from flectofold_ros.wire.panel_states import Table
 
 #: The arrow toward the sun starts at the facade's centre and is this long [m].
 SUN_ARROW_M = 3.0
@@ -28,7 +33,7 @@ class FacadeMarkers:
     SURFACE_RGBA = colours.SURFACE_RGBA
     SUN_RGBA = colours.SUN_RGBA
 
-    def __init__(self, facade, min_change_rad=1e-3):
+    def __init__(self, facade: Facade, min_change_rad: float = 1e-3) -> None:
         self.facade = facade
         self.mesher = FacadeMesher(facade)
         count = len(self.mesher)
@@ -44,10 +49,10 @@ class FacadeMarkers:
         self._shown_rgba = np.zeros((count, 4), dtype=np.uint8)
         self._remesh(np.arange(count))
 
-    def __len__(self):
+    def __len__(self) -> int:
         return len(self.mesher)
 
-    def take(self, table):
+    def take(self, table: Table) -> int:
         """Take a panel_states table; return how many of its points were this facade's."""
         index = panel_states.indices(table, self._lookup)
         angle = table['fold_angle_rad'].astype(float)
@@ -60,7 +65,7 @@ class FacadeMarkers:
         self.seen[index] = True
         return len(index)
 
-    def changed(self, everything=False):
+    def changed(self, everything: bool = False) -> IntArray:
         """Return the panels whose marker changed since the last call (all: ``everything``).
 
         Re-meshes the panels that moved by more than ``min_change_rad``.
@@ -72,7 +77,7 @@ class FacadeMarkers:
         self._shown_rgba = rgba
         return np.arange(len(self)) if everything else np.flatnonzero(moved | recoloured)
 
-    def _remesh(self, panels):
+    def _remesh(self, panels: IntArray) -> None:
         if len(panels):
             angle = self.fold_angle_rad[panels]
             batch = self.mesher.batch(panels)
@@ -81,26 +86,26 @@ class FacadeMarkers:
             self._vertices[panels] = vertices
             self._meshed_rad[panels] = angle
 
-    def colours(self):
+    def colours(self) -> RgbaArray:
         """(N, 4) uint8 RGBA of every panel now (:func:`.colours.panel_colours`)."""
         return colours.panel_colours(self.closure, self.seen, self.fault)
 
-    def colour(self, index):
+    def colour(self, index: int) -> tuple[int, ...]:
         """RGBA of panel ``index`` as last handed out by :meth:`changed`."""
         return tuple(int(c) for c in self._shown_rgba[index])
 
-    def triangles(self, index):
+    def triangles(self, index: int) -> FloatArray:
         """(3 T, 3) corners of panel ``index``'s triangles in ENU [m], three per triangle."""
         return self._vertices[index][self._faces].reshape(-1, 3)
 
-    def surface_triangles(self):
+    def surface_triangles(self) -> FloatArray:
         """(3 T, 3) corners of the facade's surface (each flat panel outline, fanned) [m]."""
         corners = self.mesher.outline_enu(SURFACE_DEPTH_M)
         count = corners.shape[1]
         fan = np.array([(0, k, k + 1) for k in range(1, count - 1)])
         return corners[:, fan].reshape(-1, 3)
 
-    def sun_arrow(self, toward_sun_enu):
+    def sun_arrow(self, toward_sun_enu: npt.ArrayLike) -> tuple[FloatArray, FloatArray]:
         """Tail and head [m] of the arrow from the facade's centre toward the sun."""
         tail = self.mesher.positions_enu.mean(axis=0)
         return tail, tail + SUN_ARROW_M * np.asarray(toward_sun_enu, dtype=float)

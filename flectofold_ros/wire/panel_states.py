@@ -11,7 +11,10 @@ a panel id ``rNNcNN`` travels as its two numbers, ``fault`` and ``status`` as th
 :data:`flectofold_ros.wire.contract.FAULTS` and :data:`~flectofold_ros.wire.contract.STATUSES`.
 """
 
+from typing import Any, Callable, Sequence
+
 import numpy as np
+import numpy.typing as npt
 
 from flectofold_ros.wire import contract
 
@@ -42,14 +45,22 @@ DTYPE = np.dtype({
     'itemsize': 36,
 })
 POINT_STEP = DTYPE.itemsize
+#: Byte offset of each field in a point (a structured dtype has fields).
+_OFFSETS: dict[str, int] = {name: DTYPE.fields[name][1]  # type: ignore[index]
+                            for name, _, _ in FIELDS}
+#: A table of panels: a numpy structured array of :data:`DTYPE`, one row per panel.
+Table = npt.NDArray[np.void]
+#: Panel ids as their numbers: rows or columns (uint16), or indices (int64).
+UInt16Array = npt.NDArray[np.uint16]
+IndexArray = npt.NDArray[np.int64]
 
 
-def new_table(count):
+def new_table(count: int) -> Table:
     """Return a zeroed table of ``count`` panels (a numpy structured array of :data:`DTYPE`)."""
     return np.zeros(count, dtype=DTYPE)
 
 
-def id_numbers(panel_ids):
+def id_numbers(panel_ids: Sequence[str]) -> tuple[UInt16Array, UInt16Array]:
     """Return the ``(rows, columns)`` uint16 arrays of ``rNNcNN`` panel ids."""
     for panel_id in panel_ids:
         if not contract.PANEL_ID.fullmatch(panel_id):
@@ -59,7 +70,7 @@ def id_numbers(panel_ids):
     return rows, columns
 
 
-def index_lookup(panel_ids):
+def index_lookup(panel_ids: Sequence[str]) -> IndexArray:
     """Return an array that maps ``100 * row + column`` to the index of the id in ``panel_ids``.
 
     Entries of ids not in ``panel_ids`` are -1; :func:`indices` uses it.
@@ -70,7 +81,7 @@ def index_lookup(panel_ids):
     return lookup
 
 
-def indices(table, lookup):
+def indices(table: Table, lookup: IndexArray) -> IndexArray:
     """Return each point's index by an :func:`index_lookup` (-1: a panel it does not know).
 
     A row or column beyond two digits (a foreign or hostile cloud) is a panel it does not know.
@@ -82,13 +93,14 @@ def indices(table, lookup):
     return index
 
 
-def panel_ids(table):
+def panel_ids(table: Table) -> list[str]:
     """Return the panel ids of a table's points."""
     rows, columns = table['row'].tolist(), table['column'].tolist()
     return [f'r{r:02d}c{c:02d}' for r, c in zip(rows, columns)]
 
 
-def fill_message(message, table, stamp, point_field):
+def fill_message(message: Any, table: Table, stamp: Any,
+                 point_field: Callable[..., Any]) -> Any:
     """Make ``message`` (a ``PointCloud2``) carry ``table``; ``point_field`` is its field class.
 
     ``stamp`` is a ``builtin_interfaces/Time``; the frame is :data:`contract.SITE_FRAME`.
@@ -97,8 +109,8 @@ def fill_message(message, table, stamp, point_field):
     message.header.frame_id = contract.SITE_FRAME
     message.height, message.width = 1, len(table)
     if len(message.fields) != len(FIELDS):
-        message.fields = [point_field(name=name, offset=DTYPE.fields[name][1], datatype=kind,
-                                      count=1) for name, kind, _ in FIELDS]
+        message.fields = [point_field(name=name, offset=_OFFSETS[name], datatype=kind, count=1)
+                          for name, kind, _ in FIELDS]
     message.is_bigendian = False
     message.point_step, message.row_step = POINT_STEP, POINT_STEP * len(table)
     message.data = table.tobytes()
@@ -106,7 +118,7 @@ def fill_message(message, table, stamp, point_field):
     return message
 
 
-def unpack(message):
+def unpack(message: Any) -> Table:
     """Return the table a ``PointCloud2`` carries (rclpy or rosbags message).
 
     Raises ValueError when the message does not have this module's layout (another field
@@ -115,7 +127,7 @@ def unpack(message):
     """
     layout = [(field.name, int(field.offset), int(field.datatype), int(field.count))
               for field in message.fields]
-    expected = [(name, DTYPE.fields[name][1], kind, 1) for name, kind, _ in FIELDS]
+    expected = [(name, _OFFSETS[name], kind, 1) for name, kind, _ in FIELDS]
     if layout != expected:
         raise ValueError(f"panel_states fields {layout} are not the contract's {expected}")
     if message.is_bigendian or message.point_step != POINT_STEP:
@@ -129,20 +141,20 @@ def unpack(message):
     return np.frombuffer(data, dtype=DTYPE)
 
 
-def fault_words(table):
+def fault_words(table: Table) -> list[str]:
     """Return each point's fault word; ``unknown`` for a code outside the contract's."""
     return _words(table['fault'], contract.FAULTS)
 
 
-def status_words(table):
+def status_words(table: Table) -> list[str]:
     """Return each point's status word; ``unknown`` for a code outside the contract's."""
     return _words(table['status'], contract.STATUSES)
 
 
-def _words(codes, words):
+def _words(codes: npt.NDArray[Any], words: Sequence[str]) -> list[str]:
     return [words[code] if code < len(words) else 'unknown' for code in codes.tolist()]
 
 
-def stamp_ns(header):
+def stamp_ns(header: Any) -> int:
     """Nanoseconds of a ``std_msgs/Header`` stamp."""
     return header.stamp.sec * 10**9 + header.stamp.nanosec

@@ -30,6 +30,7 @@ message (rclpy's message info carries no publisher id):
 from dataclasses import dataclass
 import os
 import socket
+from typing import Iterable, Optional
 
 from flectofold_ros.wire import contract
 
@@ -73,33 +74,35 @@ class Instance:
     clock: bool = False
 
     @property
-    def process(self):
+    def process(self) -> tuple[str, int]:
         """``(host, pid)``: one process."""
         return self.host, self.pid
 
     @property
-    def key(self):
+    def key(self) -> tuple[str, int, str]:
         """``(host, pid, role)``: one announcement (a bringup may run its panels itself)."""
         return self.host, self.pid, self.role
 
-    def fields(self):
+    def fields(self) -> tuple[str, str, str, list[tuple[str, str]]]:
         """Return the announcement's ``(name, hardware_id, message, values)``, values as pairs."""
         return (self.role, self.host, self.facade,
                 [('pid', str(self.pid)), ('nodes', ','.join(self.nodes)),
                  ('panels', ','.join(self.panels)), ('clock', 'true' if self.clock else 'false')])
 
-    def describe(self):
+    def describe(self) -> str:
         """``facade bringup of 'demonstrator' (host h, pid 123)``."""
         return f'{self.role} of {self.facade!r} (host {self.host}, pid {self.pid})'
 
 
-def this_process(role, facade, nodes=(), panels=(), clock=False):
+def this_process(role: str, facade: str, nodes: Iterable[str] = (), panels: Iterable[str] = (),
+                 clock: bool = False) -> Instance:
     """Return the :class:`Instance` of the calling process."""
     return Instance(socket.gethostname(), os.getpid(), role, facade, tuple(nodes),
                     tuple(panels), clock)
 
 
-def instance_from_fields(name, hardware_id, message, values):
+def instance_from_fields(name: str, hardware_id: str, message: str,
+                         values: Iterable[tuple[str, str]]) -> Instance:
     """Return the :class:`Instance` an announcement describes; ValueError if it is none."""
     values = dict(values)
     try:
@@ -108,13 +111,13 @@ def instance_from_fields(name, hardware_id, message, values):
         raise ValueError(f'an announcement without a process id: {values.get("pid")!r}') \
             from None
 
-    def listed(key):
+    def listed(key: str) -> tuple[str, ...]:
         return tuple(word for word in values.get(key, '').split(',') if word)
     return Instance(hardware_id, pid, name, message, listed('nodes'), listed('panels'),
                     values.get('clock') == 'true')
 
 
-def conflicts(own, others):
+def conflicts(own: Instance, others: Iterable[Instance]) -> list[str]:
     """Return one line per live instance in ``others`` that holds what ``own`` holds.
 
     Two instances conflict when both publish ``/clock``, both run a coordinator, or both run
@@ -139,12 +142,12 @@ def conflicts(own, others):
     return lines
 
 
-def _runs_coordinator(instance):
+def _runs_coordinator(instance: Instance) -> bool:
     coordinator = f'{contract.FACADE_NAMESPACE}/{contract.COORDINATOR_NODE}'
     return instance.role == COORDINATOR or coordinator in instance.nodes
 
 
-def panel_id_of(node_name):
+def panel_id_of(node_name: str) -> Optional[str]:
     """Return the panel id of a panel node's full name (``/facade/r00c00/panel``), or None."""
     parts = node_name.strip('/').split('/')
     if len(parts) == 3 and parts[0] == contract.FACADE_NAMESPACE.strip('/') \
@@ -153,7 +156,7 @@ def panel_id_of(node_name):
     return None
 
 
-def who(node_name, instances):
+def who(node_name: str, instances: Iterable[Instance]) -> str:
     """Name a node for a log line: with its host and process when an instance announced it."""
     panel_id = panel_id_of(node_name)
     for instance in instances:
@@ -162,10 +165,11 @@ def who(node_name, instances):
     return f'{node_name} (announced no flectofold process: host unknown)'
 
 
-def doubled_panels(node_names, panels):
+def doubled_panels(node_names: Iterable[str], panels: Iterable[str]) -> list[str]:
     """Return the ids of ``panels`` whose panel node the graph lists more than once."""
     wanted = set(panels)
-    seen, doubled = set(), set()
+    seen: set[str] = set()
+    doubled: set[str] = set()
     for name in node_names:
         panel_id = panel_id_of(name)
         if panel_id in wanted:
@@ -173,7 +177,7 @@ def doubled_panels(node_names, panels):
     return sorted(doubled)
 
 
-def quoted(names):
+def quoted(names: Iterable[str]) -> str:
     """Quote a list short enough for one line: ``a, b, c, d and 3 more``."""
     names = list(names)
     head = ', '.join(names[:_NAMES_QUOTED])

@@ -20,17 +20,21 @@ The search for the closed rise stays below a spoke tilt of :data:`MAX_SPOKE_TILT
 
 from dataclasses import dataclass, fields
 import math
+from typing import Optional
 
 import numpy as np
+import numpy.typing as npt
 from scipy.optimize.elementwise import find_root
 
-from flectofold_model._validate import in_range
+from flectofold_model._validate import BoolArray, FloatArray, in_range, IntArray
 from flectofold_model.kinematics.closure_map import LinearClosureMap
 from flectofold_model.kinematics.hexagon import cone
-from flectofold_model.kinematics.hexagon.mesh import DEFAULT_HEXAGON_TOPOLOGY, hexagon_mesh
+from flectofold_model.kinematics.hexagon.mesh import (DEFAULT_HEXAGON_TOPOLOGY, hexagon_mesh,
+                                                      HexagonTopology)
 from flectofold_model.kinematics.hexagon.panel import (hexagon_radius_m, HexagonBatch,
                                                        SECTOR_RAD)
 from flectofold_model.kinematics.hexagon.reflection import SectorGeometry
+from flectofold_model.kinematics.mesh import FoldMesh
 
 #: Largest apex fold angle [rad]: the flaps lean 30 degrees past upright over the centre.
 MAX_APEX_FOLD_ANGLE_RAD = math.radians(120.0)
@@ -63,7 +67,7 @@ class HexagonFoldState:
     """``tip_travel_m`` over the rise travelled since the open state; NaN there."""
 
     @property
-    def shape_parameter(self):
+    def shape_parameter(self) -> FloatArray:
         """The one number that fixes the shape: the centre rise [m]."""
         return self.centre_rise_m
 
@@ -73,14 +77,14 @@ _BUILT = ('max_rise_m', 'closed_rise_m', 'closed_fold_angle_rad', 'open_fold_ang
           'open_rise_m', '_open_tip', 'crease_mismatch_m')
 
 
-def _distinct_rows(batch):
+def _distinct_rows(batch: HexagonBatch) -> tuple[IntArray, IntArray]:
     """Index of each distinct panel's first occurrence, and each panel's distinct row (N,)."""
     columns = np.stack([getattr(batch, field.name) for field in fields(batch)], axis=-1)
     _, first, row = np.unique(columns, axis=0, return_index=True, return_inverse=True)
     return first, row.reshape(-1)
 
 
-def _wedge_margin_m(batch, geometry):
+def _wedge_margin_m(batch: HexagonBatch, geometry: SectorGeometry) -> FloatArray:
     """Smallest distance of flap 0's boundary from the planes through T_0 and T_1 [m]."""
     phi = np.linspace(0.0, SECTOR_RAD, 49)[1:-1]
     boundary = geometry.flap_points(phi, hexagon_radius_m(batch.circumradius_m[:, None], phi))
@@ -92,11 +96,12 @@ def _wedge_margin_m(batch, geometry):
     return np.min(np.where(inside, to_plane, -radius), axis=-1)
 
 
-def _rise_for_fold_angle(batch, fold_angle_rad, highest_m):
+def _rise_for_fold_angle(batch: HexagonBatch, fold_angle_rad: npt.ArrayLike,
+                         highest_m: npt.ArrayLike) -> FloatArray:
     """Centre rises (N,) for apex fold angles, by scipy's bracketing root finder."""
     goal = np.broadcast_to(np.asarray(fold_angle_rad, dtype=np.float64), (len(batch),))
 
-    def miss(rise, target, index):
+    def miss(rise: FloatArray, target: FloatArray, index: IntArray) -> FloatArray:
         return SectorGeometry(batch.take(index), rise).apex_fold_angle_rad - target
 
     result = find_root(miss, (np.zeros(len(batch)), np.array(highest_m, dtype=np.float64)),
@@ -116,8 +121,14 @@ class HexagonFoldModel(LinearClosureMap):
 
     crease_name = 'crease'
     hinge_remedy = 'widen the hinge zone or change fold_line_sag_m'
+    batch: HexagonBatch
+    # What construction computes (_BUILT), per panel.
+    max_rise_m: FloatArray
+    closed_rise_m: FloatArray
+    open_rise_m: FloatArray
+    _open_tip: FloatArray
 
-    def __init__(self, batch):
+    def __init__(self, batch: HexagonBatch) -> None:
         if not isinstance(batch, HexagonBatch):
             raise TypeError(f'HexagonFoldModel needs a HexagonBatch, got {type(batch).__name__}')
         self.batch = batch
@@ -130,7 +141,7 @@ class HexagonFoldModel(LinearClosureMap):
             for name in _BUILT:
                 setattr(self, name, getattr(source, name)[row])
 
-    def _build(self):
+    def _build(self) -> None:
         """Open and closed states and the construction checks, for distinct panels."""
         batch = self.batch
         self.max_rise_m = batch.circumradius_m * math.sin(MAX_SPOKE_TILT_RAD)
@@ -152,23 +163,23 @@ class HexagonFoldModel(LinearClosureMap):
         self._check_hinges()
 
     @property
-    def open_shape(self):
+    def open_shape(self) -> FloatArray:
         """Shape parameter (centre rise [m]) of the open state, (N,)."""
         return self.open_rise_m
 
     @property
-    def closed_shape(self):
+    def closed_shape(self) -> FloatArray:
         """Shape parameter (centre rise [m]) of the closed state, (N,)."""
         return self.closed_rise_m
 
     @staticmethod
-    def _within_limits(batch, rise_m):
+    def _within_limits(batch: HexagonBatch, rise_m: FloatArray) -> BoolArray:
         geometry = SectorGeometry(batch, rise_m)
         tip = geometry.flap_tip
         tips_apart = np.hypot(tip[:, 0], tip[:, 1]) * math.sqrt(3.0) >= batch.closed_clearance_m
         return tips_apart & (_wedge_margin_m(batch, geometry) > 0.0)
 
-    def _closed_rise(self):
+    def _closed_rise(self) -> FloatArray:
         leaning = self._rise_for_fold_angle(np.full(len(self.batch), MAX_APEX_FOLD_ANGLE_RAD),
                                             self.max_rise_m)
         crowded = np.flatnonzero(~self._within_limits(self.batch, leaning))
@@ -183,11 +194,12 @@ class HexagonFoldModel(LinearClosureMap):
             leaning[crowded] = low
         return leaning
 
-    def _rise_for_fold_angle(self, fold_angle_rad, highest=None):
+    def _rise_for_fold_angle(self, fold_angle_rad: npt.ArrayLike,
+                             highest: Optional[npt.ArrayLike] = None) -> FloatArray:
         high = self.closed_rise_m if highest is None else highest
         return _rise_for_fold_angle(self.batch, fold_angle_rad, high)
 
-    def _check_monotone(self):
+    def _check_monotone(self) -> None:
         fractions = np.linspace(0.0, 1.0, _MONOTONE_CHECK_STATES)
         rises = self.open_rise_m[:, None] + fractions * (self.closed_rise_m
                                                          - self.open_rise_m)[:, None]
@@ -197,16 +209,16 @@ class HexagonFoldModel(LinearClosureMap):
             raise ValueError('the apex fold angle does not grow with the centre rise: the '
                              'closure map would not invert')
 
-    def shape_from_fold_angle(self, fold_angle_rad):
+    def shape_from_fold_angle(self, fold_angle_rad: npt.ArrayLike) -> FloatArray:
         """Centre rise [m] for apex fold angles [rad] between the open and closed limits."""
         self.closure_from_fold_angle(fold_angle_rad)
         return self._rise_for_fold_angle(self._per_panel('fold_angle_rad', fold_angle_rad))
 
-    def state_from_closure(self, closure):
+    def state_from_closure(self, closure: npt.ArrayLike) -> HexagonFoldState:
         """Full :class:`HexagonFoldState` for closure in [0, 1] (scalar or one per panel)."""
         return self._state(self._rise_for_fold_angle(self.fold_angle_from_closure(closure)))
 
-    def state_from_rise(self, centre_rise_m):
+    def state_from_rise(self, centre_rise_m: npt.ArrayLike) -> HexagonFoldState:
         """Full :class:`HexagonFoldState` for centre rises [m] between open and closed."""
         rise = self._per_panel('centre_rise_m', centre_rise_m)
         in_range('centre_rise_m - its open value', rise - self.open_rise_m, -1e-12, np.inf)
@@ -215,7 +227,7 @@ class HexagonFoldModel(LinearClosureMap):
 
     state_from_shape = state_from_rise
 
-    def shape_table(self, samples=257):
+    def shape_table(self, samples: int = 257) -> FloatArray:
         """Centre rises (N, S) [m] at ``samples`` closures evenly spaced over [0, 1].
 
         Computed in one root-finding pass over the distinct panels, so a caller that needs
@@ -231,7 +243,7 @@ class HexagonFoldModel(LinearClosureMap):
         rises = _rise_for_fold_angle(self.batch.take(rows), goal, self.closed_rise_m[rows])
         return rises.reshape(first.size, samples)[self._distinct_row]
 
-    def _state(self, rise):
+    def _state(self, rise: FloatArray) -> HexagonFoldState:
         geometry = SectorGeometry(self.batch, rise)
         fold_angle = geometry.apex_fold_angle_rad
         closure = ((fold_angle - self.open_fold_angle_rad)
@@ -246,6 +258,7 @@ class HexagonFoldModel(LinearClosureMap):
             spoke_tilt_rad=geometry.tilt_rad, cone_amplitude_rad=geometry.amplitude_rad,
             apex_fold_angle_rad=fold_angle, tip_travel_m=travel, amplification=amplification)
 
-    def mesh(self, shape, topology=None, dtype=np.float64, out=None):
+    def mesh(self, shape: npt.ArrayLike, topology: Optional[HexagonTopology] = None,
+             dtype: npt.DTypeLike = np.float64, out: Optional[FoldMesh] = None) -> FoldMesh:
         """Folded meshes at shape parameters (centre rises [m]) ``shape`` (N,)."""
         return hexagon_mesh(self.batch, shape, topology or DEFAULT_HEXAGON_TOPOLOGY, dtype, out)

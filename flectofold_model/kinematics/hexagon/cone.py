@@ -27,46 +27,48 @@ apex, where a real sheet forms a small core.
 import math
 
 import numpy as np
+import numpy.typing as npt
 
-from flectofold_model.kinematics.hexagon.panel import SECTOR_RAD
+from flectofold_model._validate import FloatArray
+from flectofold_model.kinematics.hexagon.panel import HexagonBatch, SECTOR_RAD
 
 _NODES, _WEIGHTS = np.polynomial.legendre.leggauss(48)
 #: Largest amplitude for which the unit-speed condition can hold (``|e'| <= 1``).
 MAX_AMPLITUDE_RAD = 2.0 / 3.0
 
 
-def spoke_tilt_rad(batch, rise_m):
+def spoke_tilt_rad(batch: HexagonBatch, rise_m: npt.ArrayLike) -> FloatArray:
     """Downward tilt ``asin(d / R)`` of the spokes [rad]."""
     return np.arcsin(np.asarray(rise_m, dtype=np.float64) / batch.circumradius_m)
 
 
-def vertex_displacement_m(batch, rise_m):
+def vertex_displacement_m(batch: HexagonBatch, rise_m: npt.ArrayLike) -> FloatArray:
     """Inward travel ``R - sqrt(R**2 - d**2)`` of each triangle vertex [m] (Pythagoras)."""
     radius = batch.circumradius_m
     return radius - np.sqrt(radius ** 2 - np.square(rise_m))
 
 
-def _elevation(tilt, amplitude, phi):
+def _elevation(tilt: FloatArray, amplitude: FloatArray, phi: FloatArray) -> FloatArray:
     return -tilt + amplitude * (1.0 - np.cos(3.0 * phi)) / 2.0
 
 
-def _elevation_rate(amplitude, phi):
+def _elevation_rate(amplitude: FloatArray, phi: FloatArray) -> FloatArray:
     return 1.5 * amplitude * np.sin(3.0 * phi)
 
 
-def _azimuth_rate(tilt, amplitude, phi):
+def _azimuth_rate(tilt: FloatArray, amplitude: FloatArray, phi: FloatArray) -> FloatArray:
     rate = _elevation_rate(amplitude, phi)
     return np.sqrt(np.clip(1.0 - rate ** 2, 0.0, None)) / np.cos(_elevation(tilt, amplitude, phi))
 
 
-def sector_turn_rad(tilt, amplitude):
+def sector_turn_rad(tilt: npt.ArrayLike, amplitude: npt.ArrayLike) -> FloatArray:
     """Azimuth one sector turns through for spoke tilts and amplitudes (broadcast) [rad]."""
     phi = (_NODES + 1.0) * SECTOR_RAD / 2.0
     rate = _azimuth_rate(np.asarray(tilt)[..., None], np.asarray(amplitude)[..., None], phi)
     return np.sum(rate * _WEIGHTS, axis=-1) * SECTOR_RAD / 2.0
 
 
-def _turn_and_slope(tilt, amplitude):
+def _turn_and_slope(tilt: FloatArray, amplitude: FloatArray) -> tuple[FloatArray, FloatArray]:
     """Sector turn [rad] and its derivative in the amplitude, for tilts and amplitudes (N,)."""
     phi = (_NODES + 1.0) * SECTOR_RAD / 2.0
     tilt, amplitude = tilt[:, None], amplitude[:, None]
@@ -81,7 +83,7 @@ def _turn_and_slope(tilt, amplitude):
     return np.sum(rate * _WEIGHTS, -1) * scale, np.sum(slope * _WEIGHTS, -1) * scale
 
 
-def cone_amplitude_rad(tilt_rad):
+def cone_amplitude_rad(tilt_rad: npt.ArrayLike) -> FloatArray:
     """Elevation amplitude ``A`` that closes the cone for spoke tilts (N,) [rad].
 
     Newton's method from ``A = 2 beta / 3`` (the turn falls smoothly and strictly with ``A``);
@@ -102,7 +104,7 @@ def cone_amplitude_rad(tilt_rad):
     return amplitude.reshape(np.shape(tilt_rad))
 
 
-def _bisected_amplitude(tilt, iterations=60):
+def _bisected_amplitude(tilt: FloatArray, iterations: int = 60) -> FloatArray:
     low, high = np.zeros_like(tilt), np.full_like(tilt, MAX_AMPLITUDE_RAD)
     for _ in range(iterations):
         middle = (low + high) / 2.0
@@ -111,7 +113,8 @@ def _bisected_amplitude(tilt, iterations=60):
     return (low + high) / 2.0
 
 
-def ruling_direction(tilt, amplitude, phi):
+def ruling_direction(tilt: npt.ArrayLike, amplitude: npt.ArrayLike,
+                     phi: npt.ArrayLike) -> FloatArray:
     """Return the unit ruling directions (N, P, 3) at sector angles ``phi`` (P,) of sector 0.
 
     Sector 0 starts at the spoke to ``T_0`` (azimuth 90 degrees). The azimuth is integrated by
@@ -126,7 +129,8 @@ def ruling_direction(tilt, amplitude, phi):
     return _direction(azimuth, elevation)
 
 
-def ruling_direction_rate(tilt, amplitude, phi):
+def ruling_direction_rate(tilt: npt.ArrayLike, amplitude: npt.ArrayLike,
+                          phi: FloatArray) -> FloatArray:
     """``dg / dphi`` (N, P, 3), a unit vector along the cone's cross-section."""
     tilt, amplitude = np.asarray(tilt)[:, None], np.asarray(amplitude)[:, None]
     direction = ruling_direction(tilt[:, 0], amplitude[:, 0], phi)
@@ -142,12 +146,12 @@ def ruling_direction_rate(tilt, amplitude, phi):
         np.cos(elevation) * d_elevation], axis=-1)
 
 
-def _direction(azimuth, elevation):
+def _direction(azimuth: FloatArray, elevation: FloatArray) -> FloatArray:
     return np.stack([np.cos(elevation) * np.cos(azimuth), np.cos(elevation) * np.sin(azimuth),
                      np.sin(elevation)], axis=-1)
 
 
-def discrete_ruling_directions(tilt, intervals):
+def discrete_ruling_directions(tilt: npt.ArrayLike, intervals: int) -> FloatArray:
     """Ruling directions (N, intervals + 1, 3) of a polyhedral cone that closes exactly.
 
     The rulings sit at ``intervals`` equal flat angles across sector 0. Consecutive rulings make
@@ -160,7 +164,7 @@ def discrete_ruling_directions(tilt, intervals):
     phi = np.linspace(0.0, SECTOR_RAD, intervals + 1)
     step = SECTOR_RAD / intervals
 
-    def turns(amplitude):
+    def turns(amplitude: FloatArray) -> tuple[FloatArray, FloatArray]:
         elevation = _elevation(tilt[:, None], amplitude[:, None], phi)
         sin_e, cos_e = np.sin(elevation), np.cos(elevation)
         cosine = (math.cos(step) - sin_e[:, :-1] * sin_e[:, 1:]) / (cos_e[:, :-1] * cos_e[:, 1:])

@@ -10,14 +10,16 @@ it. Sector angles count from ``T_i`` toward ``T_(i+1)`` as seen from the centre.
 import math
 
 import numpy as np
+import numpy.typing as npt
 from scipy.interpolate import BSpline
 
-from flectofold_model.kinematics.hexagon.panel import SECTOR_RAD
+from flectofold_model._validate import FloatArray
+from flectofold_model.kinematics.hexagon.panel import HexagonBatch, SECTOR_RAD
 
 _KNOTS = np.array([0.0, 0.0, 0.0, 1.0, 1.0, 1.0])
 
 
-def control_points_m(batch):
+def control_points_m(batch: HexagonBatch) -> FloatArray:
     """Control points (N, 3, 2) of fold line 0 in a frame with T_0 on +y, ``Q`` on the left.
 
     The line is symmetric about its mid-azimuth (150 degrees); the other fold lines are it
@@ -32,7 +34,7 @@ def control_points_m(batch):
     return np.stack([start, control, end], axis=1)
 
 
-def fold_line_spline(batch):
+def fold_line_spline(batch: HexagonBatch) -> BSpline:
     """Fold line 0 of every panel as one :class:`~scipy.interpolate.BSpline`.
 
     Evaluated at parameters (P,) in [0, 1] it gives points (P, N, 2) [m]; its ``derivative()``
@@ -41,12 +43,13 @@ def fold_line_spline(batch):
     return BSpline(_KNOTS, np.moveaxis(control_points_m(batch), 1, 0), 2)
 
 
-def fold_line_points_m(batch, parameter):
+def fold_line_points_m(batch: HexagonBatch, parameter: npt.ArrayLike) -> FloatArray:
     """Points (N, P, 2) of fold line 0 at B-spline parameters ``parameter`` (P,) in [0, 1]."""
     return np.moveaxis(fold_line_spline(batch)(np.asarray(parameter, dtype=np.float64)), 0, 1)
 
 
-def drawn_radius_m(batch, sector_angle_rad, samples=401):
+def drawn_radius_m(batch: HexagonBatch, sector_angle_rad: npt.ArrayLike,
+                   samples: int = 401) -> FloatArray:
     """Distance from the centre to the drawn fold line [m] at sector angles (P,), (N, P).
 
     The spline is sampled densely and read back in polar form; its azimuth grows strictly

@@ -20,9 +20,12 @@ triangles wind counter-clockwise seen from the front, and the normals point out 
 
 from dataclasses import dataclass
 import math
+from typing import Optional
 
 import numpy as np
+import numpy.typing as npt
 
+from flectofold_model._validate import FloatArray, IntArray
 from flectofold_model.kinematics.hexagon import cone
 from flectofold_model.kinematics.hexagon.panel import (hexagon_radius_m, HexagonBatch,
                                                        SECTOR_RAD)
@@ -39,34 +42,34 @@ class HexagonTopology:
     rings: int
     flap_columns: int
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         check_counts(self, (('rulings_per_sector', 2), ('rings', 1), ('flap_columns', 2)))
         if self.rulings_per_sector % 2:
             raise ValueError(f'rulings_per_sector must be even (a ruling runs through each '
                              f'crease apex), got {self.rulings_per_sector}')
 
     @property
-    def cone_vertex_count(self):
+    def cone_vertex_count(self) -> int:
         """Vertices of the central cone, the centre point included."""
         return 1 + 3 * self.rulings_per_sector * self.rings
 
     @property
-    def flap_vertex_count(self):
+    def flap_vertex_count(self) -> int:
         """Vertices of one flap."""
         return (self.rulings_per_sector + 1) * self.flap_columns
 
     @property
-    def vertex_count(self):
+    def vertex_count(self) -> int:
         """Vertices per panel."""
         return self.cone_vertex_count + 3 * self.flap_vertex_count
 
-    def flap(self, index):
+    def flap(self, index: int) -> slice:
         """Slice of the vertices of flap ``index`` (0, 1, 2)."""
         start = self.cone_vertex_count + index * self.flap_vertex_count
         return slice(start, start + self.flap_vertex_count)
 
     @property
-    def flat_polar(self):
+    def flat_polar(self) -> tuple[FloatArray, FloatArray]:
         """Flat azimuth (V,) [rad] and fraction (V,) of every vertex's place on its ruling.
 
         For a cone vertex the fraction runs 0 (centre) to 1 (crease); for a flap vertex,
@@ -85,7 +88,7 @@ class HexagonTopology:
         return np.concatenate(azimuth), np.concatenate(fraction)
 
     @property
-    def faces(self):
+    def faces(self) -> npt.NDArray[np.int32]:
         """(F, 3) int32 triangle indices of one panel, counter-clockwise from the front."""
         m, rings, columns = self.rulings_per_sector, self.rings, self.flap_columns
         ring = 1 + np.arange(3 * m * rings).reshape(3 * m, rings)
@@ -104,7 +107,7 @@ class HexagonTopology:
         return np.concatenate([f.reshape(-1, 3) for f in faces]).astype(np.int32)
 
 
-def _quads(a, b, c, d):
+def _quads(a: IntArray, b: IntArray, c: IntArray, d: IntArray) -> list[IntArray]:
     return [np.stack([a, b, c], -1).reshape(-1, 3), np.stack([a, c, d], -1).reshape(-1, 3)]
 
 
@@ -112,7 +115,9 @@ def _quads(a, b, c, d):
 DEFAULT_HEXAGON_TOPOLOGY = HexagonTopology(rulings_per_sector=12, rings=4, flap_columns=8)
 
 
-def _sector_frame(batch, rise_m, topology):
+def _sector_frame(
+        batch: HexagonBatch, rise_m: FloatArray, topology: HexagonTopology,
+) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, FloatArray]:
     """Ruling directions of sector 0 (N, m+1, 3), its fold plane and crease radii (N, m+1)."""
     m = topology.rulings_per_sector
     directions = cone.discrete_ruling_directions(cone.spoke_tilt_rad(batch, rise_m), m)
@@ -128,7 +133,7 @@ def _sector_frame(batch, rise_m, topology):
     return directions, centre, normal, offset, crease
 
 
-def _ruling_normals(directions):
+def _ruling_normals(directions: FloatArray) -> FloatArray:
     """Front normals (N, m+1, 3) of the polyhedral cone at its rulings (central differences)."""
     turned = directions @ rotation_about_z(SECTOR_RAD).T
     before = np.concatenate([(directions @ rotation_about_z(-SECTOR_RAD).T)[:, -2:-1],
@@ -138,7 +143,9 @@ def _ruling_normals(directions):
     return normal / np.linalg.norm(normal, axis=-1, keepdims=True)
 
 
-def hexagon_mesh(batch, rise_m, topology=DEFAULT_HEXAGON_TOPOLOGY, dtype=np.float64, out=None):
+def hexagon_mesh(batch: HexagonBatch, rise_m: npt.ArrayLike,
+                 topology: HexagonTopology = DEFAULT_HEXAGON_TOPOLOGY,
+                 dtype: npt.DTypeLike = np.float64, out: Optional[FoldMesh] = None) -> FoldMesh:
     """Folded meshes of every panel of ``batch`` at centre rises ``rise_m`` (N,) [m]."""
     if not isinstance(batch, HexagonBatch):
         raise TypeError(f'hexagon_mesh needs a HexagonBatch, got {type(batch).__name__}')
@@ -171,7 +178,8 @@ def hexagon_mesh(batch, rise_m, topology=DEFAULT_HEXAGON_TOPOLOGY, dtype=np.floa
     return FoldMesh(vertices=vertices, normals=normals, faces=topology.faces)
 
 
-def flat_coordinates(batch, rise_m, topology=DEFAULT_HEXAGON_TOPOLOGY):
+def flat_coordinates(batch: HexagonBatch, rise_m: npt.ArrayLike,
+                     topology: HexagonTopology = DEFAULT_HEXAGON_TOPOLOGY) -> FloatArray:
     """(N, V, 2) coordinates of every vertex in the unfolded sheet [m].
 
     The crease vertices follow the crease, which depends on the state ``rise_m``.

@@ -21,8 +21,9 @@ from dataclasses import dataclass
 import math
 
 import numpy as np
+import numpy.typing as npt
 
-from flectofold_model._validate import real_fields
+from flectofold_model._validate import FloatArray, FloatOrArray, real_fields
 from flectofold_model.kinematics.batch import PanelArrays
 
 #: Azimuth of triangle vertex T_0 [rad]; T_i and flap tip H_i follow every 120 degrees.
@@ -46,7 +47,7 @@ class HexagonPanel:
     closed_clearance_m: float = 0.02
     """Gap left between the three flap tips at full closure [m]."""
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         real_fields(self)
         for name in ('circumradius_m', 'fold_line_sag_m', 'hinge_width_m'):
             if getattr(self, name) <= 0.0:
@@ -70,12 +71,12 @@ class HexagonPanel:
                              f'the panel ({self.circumradius_m:g} m circumradius)')
 
     @property
-    def area_m2(self):
+    def area_m2(self) -> float:
         """Area of the flat hexagon [m2]."""
         return 1.5 * math.sqrt(3.0) * self.circumradius_m ** 2
 
     @property
-    def across_flats_m(self):
+    def across_flats_m(self) -> float:
         """Distance between opposite sides [m]."""
         return math.sqrt(3.0) * self.circumradius_m
 
@@ -93,22 +94,22 @@ class HexagonBatch(PanelArrays):
     closed_clearance_m: np.ndarray
 
     @property
-    def edge_distance_m(self):
+    def edge_distance_m(self) -> FloatArray:
         """Distance of each triangle edge from the centre, ``R / 2`` [m]."""
         return self.circumradius_m / 2
 
     @property
-    def apex_radius_m(self):
+    def apex_radius_m(self) -> FloatArray:
         """Distance of each fold line's apex from the centre [m]."""
         return self.circumradius_m / 2 + self.fold_line_sag_m
 
 
-def vertex_azimuths_rad():
+def vertex_azimuths_rad() -> FloatArray:
     """Azimuths of the triangle vertices T_0, T_1, T_2 [rad], shape ``(3,)``."""
-    return FIRST_VERTEX_AZIMUTH_RAD + SECTOR_RAD * np.arange(3)
+    return FIRST_VERTEX_AZIMUTH_RAD + SECTOR_RAD * np.arange(3, dtype=np.float64)
 
 
-def hexagon_radius_m(circumradius_m, sector_angle_rad):
+def hexagon_radius_m(circumradius_m: FloatOrArray, sector_angle_rad: npt.ArrayLike) -> FloatArray:
     """Distance from the centre to the hexagon's boundary [m] at an angle from a T vertex.
 
     ``sector_angle_rad`` runs 0 ... 2 pi / 3 across one flap; the boundary there is the two
