@@ -24,8 +24,9 @@ os.environ.setdefault('OPENBLAS_NUM_THREADS', '1')
 import numpy as np  # noqa: E402
 
 from flectofold_model.kinematics.closure import FoldModel  # noqa: E402
-from flectofold_model.kinematics.hexagon import (HEXAGON_MODULE, HexagonBatch,  # noqa: E402
-                                                 HexagonFoldModel, HexagonTopology)
+from flectofold_model.kinematics.hexagon_closure import HexagonFoldModel  # noqa: E402
+from flectofold_model.kinematics.hexagon_mesh import HexagonTopology  # noqa: E402
+from flectofold_model.kinematics.hexagon_panel import HEXAGON_MODULE, HexagonBatch  # noqa: E402
 from flectofold_model.kinematics.panel import DEMONSTRATOR_MODULE, PanelBatch  # noqa: E402
 from flectofold_model.shading.ray_casting import (blocked_fraction, DEFAULT_SAMPLES,  # noqa: E402
                                                   HEXAGON_SHADING_TOPOLOGY)

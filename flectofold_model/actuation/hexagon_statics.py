@@ -1,7 +1,7 @@
 """Static actuation of hexagonal panels: cushion pressure <-> centre rise <-> closure.
 
 The reduced-order energy model of :mod:`.statics`, on the hexagonal panel's one degree of
-freedom, the centre rise ``d`` (:mod:`flectofold_model.kinematics.hexagon`). Raising the
+freedom, the centre rise ``d`` (:mod:`flectofold_model.kinematics.hexagon_cone`). Raising the
 centre to ``d`` stores elastic energy ``U(d)``:
 
 * the central cone: at flat polar coordinates ``(r, phi)`` a cone bends across its rulings
@@ -41,12 +41,12 @@ from flectofold_model._validate import real_scalar
 from flectofold_model.actuation.laminate import Laminate
 from flectofold_model.actuation.round_cushion import RoundCushion, wedge_volume_m3
 from flectofold_model.actuation.static_model import StaticActuationModel
-from flectofold_model.kinematics.hexagon import cone
-from flectofold_model.kinematics.hexagon.closure import HexagonFoldModel
-from flectofold_model.kinematics.hexagon.fold_lines import drawn_radius_m
-from flectofold_model.kinematics.hexagon.panel import (HEXAGON_MODULE, hexagon_radius_m,
+from flectofold_model.kinematics import hexagon_cone as cone
+from flectofold_model.kinematics.hexagon_closure import HexagonFoldModel
+from flectofold_model.kinematics.hexagon_fold_lines import drawn_radius_m
+from flectofold_model.kinematics.hexagon_panel import (HEXAGON_MODULE, hexagon_radius_m,
                                                        HexagonBatch, HexagonPanel)
-from flectofold_model.kinematics.hexagon.reflection import SectorGeometry
+from flectofold_model.kinematics.hexagon_reflection import SectorGeometry
 
 #: Step in the centre rise of the central differences of the static maps [m].
 RISE_STEP_M = 1e-6

@@ -12,7 +12,7 @@ from flectofold_model.actuation.hexagon_statics import (hexagon_actuated_like,
                                                         HexagonActuationModel)
 from flectofold_model.actuation.statics import actuated_like as quad_actuated_like
 from flectofold_model.actuation.statics import ActuatedPanel, ActuationModel
-from flectofold_model.kinematics.hexagon.panel import HexagonPanel
+from flectofold_model.kinematics.hexagon_panel import HexagonPanel
 from flectofold_model.kinematics.panel import PanelGeometry
 
 #: Actuated panel class -> its static model class.
@@ -24,7 +24,7 @@ def actuated_like(geometry, template=None):
 
     ``template`` defaults to the kind's preset (``DEMONSTRATOR_ACTUATED`` for a
     :class:`~flectofold_model.kinematics.panel.PanelGeometry`, ``HEXAGON_ACTUATED`` for a
-    :class:`~flectofold_model.kinematics.hexagon.panel.HexagonPanel`); a template must be of
+    :class:`~flectofold_model.kinematics.hexagon_panel.HexagonPanel`); a template must be of
     the geometry's kind.
     """
     if isinstance(geometry, HexagonPanel):

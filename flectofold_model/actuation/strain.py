@@ -36,9 +36,9 @@ from flectofold_model.actuation.laminate import FATIGUE_ALLOWABLE_STRAIN, Lamina
 from flectofold_model.actuation.statics import ActuatedPanel, DEMONSTRATOR_ACTUATED
 from flectofold_model.kinematics import elastica
 from flectofold_model.kinematics.closure import FoldModel
-from flectofold_model.kinematics.hexagon.closure import HexagonFoldModel
-from flectofold_model.kinematics.hexagon.panel import HexagonBatch, HexagonPanel
-from flectofold_model.kinematics.hexagon.reflection import MID_SECTOR_RAD, SectorGeometry
+from flectofold_model.kinematics.hexagon_closure import HexagonFoldModel
+from flectofold_model.kinematics.hexagon_panel import HexagonBatch, HexagonPanel
+from flectofold_model.kinematics.hexagon_reflection import MID_SECTOR_RAD, SectorGeometry
 from flectofold_model.kinematics.panel import PanelBatch
 from flectofold_model.kinematics.reflection import fold_angle_along_crease
 
@@ -198,7 +198,7 @@ def hexagon_panel_strain(panels, closure=1.0, stations=STATIONS):
         The quantities the energy of :class:`~.hexagon_statics.HexagonActuationModel`
         integrates, along one half-sector (the panel is three-fold and mirror symmetric).
         Hinge: ``max_phi (rho(phi) - rho_open(phi)) t_h / (2 b)`` with ``rho(phi)`` the fold
-        angle along the crease (:meth:`~flectofold_model.kinematics.hexagon.reflection.
+        angle along the crease (:meth:`~flectofold_model.kinematics.hexagon_reflection.
         SectorGeometry.fold_angle_rad`). Central part: the cone bends across its rulings at
         ``kappa_g(phi) / r``, largest at the core radius where the model's bending starts:
         ``max_phi |kappa_g - kappa_g,open| / r_core t_m / 2``. Flaps: the mirror image of the

@@ -19,7 +19,7 @@ would still fold the wrong way are reported and left out of the array.
 
 Panel kinds. ``panel.type`` is ``quad`` (the default, everything above) or ``hexagon``: the
 surface is then tessellated into regular hexagonal cells on a hexagonal lattice and each
-cell carries a :class:`~flectofold_model.kinematics.hexagon.panel.HexagonPanel`
+cell carries a :class:`~flectofold_model.kinematics.hexagon_panel.HexagonPanel`
 (:mod:`.hexagon_description`; the pre-fold rule is in :mod:`.hexagon_prefold`). A facade is
 all one kind: ``Facade.panel_kind`` says which.
 """
@@ -41,7 +41,7 @@ from flectofold_model.facade.hexagon_cells import HexagonCells
 from flectofold_model.facade.schema import (build, BuiltPanels, check, check_mix, check_type,
                                             FacadeError, need, PANEL_DEFAULTS, PANEL_KEYS,
                                             parametric, SCHEMA, shown_key, surface_kind)
-from flectofold_model.kinematics.hexagon.panel import HexagonPanel
+from flectofold_model.kinematics.hexagon_panel import HexagonPanel
 from flectofold_model.kinematics.kinds import Panel
 from flectofold_model.kinematics.panel import fold_line_sag, PanelGeometry
 from flectofold_model.safe_yaml import load_yaml, read_yaml, short_repr, YAMLInputError
@@ -85,7 +85,7 @@ class Facade:
     control: dict = field(default_factory=dict)
     panel_kind: str = 'quad'
     """``'quad'`` (:class:`~flectofold_model.kinematics.panel.PanelGeometry` panels) or
-    ``'hexagon'`` (:class:`~flectofold_model.kinematics.hexagon.panel.HexagonPanel` panels)."""
+    ``'hexagon'`` (:class:`~flectofold_model.kinematics.hexagon_panel.HexagonPanel` panels)."""
     cushion_map: str = 'energy'
     """``actuation.cushion_map``: ``'energy'`` (each panel's energy statics) or
     ``'structural'`` (the structural model of the median panel, quad facades only; see

@@ -3,7 +3,7 @@
 The Rerun scene (``flectofold_ros.rerun.scene``), the CAD export (``facade_export``) and
 anything else that needs the folded facade in space take it from :class:`FacadeMesher`:
 each panel's mesh in its panel frame (:func:`~flectofold_model.kinematics.mesh.fold_mesh`
-for quad panels, :func:`~flectofold_model.kinematics.hexagon.mesh.hexagon_mesh` for
+for quad panels, :func:`~flectofold_model.kinematics.hexagon_mesh.hexagon_mesh` for
 hexagonal ones) turned by the panel's frame and moved to its origin.
 
 Frame of every vertex here: the site frame ``site_enu`` (x east, y north, z up, metres;
@@ -30,8 +30,9 @@ from scipy.special import ellipe, ellipk
 from flectofold_model._validate import FloatArray, FloatOrArray, IntArray
 from flectofold_model.facade.description import Facade
 from flectofold_model.kinematics import elastica
-from flectofold_model.kinematics.hexagon import (hexagon_mesh, HexagonBatch, HexagonFoldModel,
-                                                 HexagonTopology)
+from flectofold_model.kinematics.hexagon_closure import HexagonFoldModel
+from flectofold_model.kinematics.hexagon_mesh import hexagon_mesh, HexagonTopology
+from flectofold_model.kinematics.hexagon_panel import HexagonBatch
 from flectofold_model.kinematics.kinds import Batch, fold_model_of, is_topology_for, panel_kind
 from flectofold_model.kinematics.mesh import DEFAULT_TOPOLOGY, fold_mesh, FoldMesh, MeshTopology
 from flectofold_model.kinematics.panel import PanelBatch

@@ -9,7 +9,7 @@ import numpy as np
 
 from flectofold_model._validate import FloatArray
 from flectofold_model.facade.description import Facade
-from flectofold_model.kinematics.hexagon.panel import HexagonPanel
+from flectofold_model.kinematics.hexagon_panel import HexagonPanel
 from flectofold_model.kinematics.kinds import Panel
 
 

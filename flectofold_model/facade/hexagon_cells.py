@@ -17,7 +17,7 @@ panels); the lattice is centred on the surface, in whichever of the two centred 
 
 Per cell: the frame at the centre (origin on the surface, ``z`` the outward normal, ``y`` the
 tangent up the facade, which is the direction of the hexagon's corner at 90 degrees, the
-triangle vertex ``T_0`` of :mod:`flectofold_model.kinematics.hexagon.panel`; ``x = y x z``
+triangle vertex ``T_0`` of :mod:`flectofold_model.kinematics.hexagon_panel`; ``x = y x z``
 points right), the mean on-surface circumradius (centre to corner chords) and the signed
 normal curvatures (convex positive) along the three flap axes, from the centre toward the
 flap tips ``H_i`` at 150 + 120 i degrees, i.e. across each fold line.

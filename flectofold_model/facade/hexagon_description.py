@@ -23,8 +23,8 @@ from flectofold_model.facade.hexagon_prefold import (centre_rise_m, flap_tilt_ra
 from flectofold_model.facade.schema import (build, BuiltPanels, check, check_mix, FacadeError,
                                             need, PANEL_DEFAULTS, PANEL_KEYS, parametric, SCHEMA,
                                             shown_key, surface_kind)
-from flectofold_model.kinematics.hexagon.closure import HexagonFoldModel, MAX_SPOKE_TILT_RAD
-from flectofold_model.kinematics.hexagon.panel import HexagonBatch, HexagonPanel
+from flectofold_model.kinematics.hexagon_closure import HexagonFoldModel, MAX_SPOKE_TILT_RAD
+from flectofold_model.kinematics.hexagon_panel import HexagonBatch, HexagonPanel
 from flectofold_model.safe_yaml import short_repr
 
 _SQRT3 = math.sqrt(3.0)

@@ -19,7 +19,7 @@ two parts:
    curvature ``(k_1 + k_2) / 2`` (Euler's formula averaged over three directions 120 degrees
    apart). That rise is the actuation's own stroke, and the panel model turns it into an apex
    fold angle ``rho(d)`` by the reflection method
-   (:class:`~flectofold_model.kinematics.hexagon.reflection.SectorGeometry`); a concave patch
+   (:class:`~flectofold_model.kinematics.hexagon_reflection.SectorGeometry`); a concave patch
    (``d < 0``) pushes the centre back and folds the flaps the other way, ``rho(-d) =
    -rho(d)`` (the mirror image). For small rises ``rho(d)`` is close to ``5 d / (3 s)``.
 2. **Flap tilt.** Flap ``i`` reaches from the fold line's apex, ``r_a = R / 2 + s`` from the
@@ -41,9 +41,9 @@ import numpy as np
 import numpy.typing as npt
 
 from flectofold_model._validate import FloatArray
-from flectofold_model.kinematics.hexagon.closure import MAX_SPOKE_TILT_RAD
-from flectofold_model.kinematics.hexagon.panel import HexagonBatch
-from flectofold_model.kinematics.hexagon.reflection import SectorGeometry
+from flectofold_model.kinematics.hexagon_closure import MAX_SPOKE_TILT_RAD
+from flectofold_model.kinematics.hexagon_panel import HexagonBatch
+from flectofold_model.kinematics.hexagon_reflection import SectorGeometry
 
 
 def centre_rise_m(circumradius_m: npt.ArrayLike, curvature_flap_per_m: FloatArray) -> FloatArray:

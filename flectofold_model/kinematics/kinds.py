@@ -11,8 +11,9 @@ that fixes a panel's shape: the mid-rib's elastica modulus for a quad panel, the
 from typing import Any, Callable, Iterable, Union
 
 from flectofold_model.kinematics.closure import FoldModel
-from flectofold_model.kinematics.hexagon import (HexagonBatch, HexagonFoldModel, HexagonPanel,
-                                                 HexagonTopology)
+from flectofold_model.kinematics.hexagon_closure import HexagonFoldModel
+from flectofold_model.kinematics.hexagon_mesh import HexagonTopology
+from flectofold_model.kinematics.hexagon_panel import HexagonBatch, HexagonPanel
 from flectofold_model.kinematics.mesh import MeshTopology
 from flectofold_model.kinematics.panel import PanelBatch, PanelGeometry
 

@@ -1,6 +1,6 @@
 """The aperture of a hexagonal panel and the tiling of the facade by its copies, for ray casting.
 
-Geometry (the panel frame of :mod:`~flectofold_model.kinematics.hexagon.panel`): the flat
+Geometry (the panel frame of :mod:`~flectofold_model.kinematics.hexagon_panel`): the flat
 panel is the regular hexagon of circumradius ``R`` around the origin with corners at the
 azimuths ``30 + 60 j`` degrees, so two of its sides are parallel to y at ``x = +-sqrt(3) R / 2``.
 Its bounding box is ``sqrt(3) R`` along x by ``2 R`` along y.

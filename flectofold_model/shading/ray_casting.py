@@ -57,9 +57,9 @@ import numpy as np
 from flectofold_model._validate import in_range, real_array, real_scalar
 from flectofold_model.kinematics import elastica
 from flectofold_model.kinematics.closure import FoldModel
-from flectofold_model.kinematics.hexagon import (hexagon_mesh, HexagonBatch, HexagonFoldModel,
-                                                 HexagonTopology)
-from flectofold_model.kinematics.hexagon.closure import MAX_SPOKE_TILT_RAD
+from flectofold_model.kinematics.hexagon_closure import HexagonFoldModel, MAX_SPOKE_TILT_RAD
+from flectofold_model.kinematics.hexagon_mesh import hexagon_mesh, HexagonTopology
+from flectofold_model.kinematics.hexagon_panel import HexagonBatch
 from flectofold_model.kinematics.kinds import is_topology_for
 from flectofold_model.kinematics.mesh import fold_mesh, MeshTopology
 from flectofold_model.kinematics.panel import PanelBatch

@@ -8,7 +8,7 @@ answers by bilinear interpolation, vectorised over any number of panels that sha
 geometry.
 
 The panel is a quad panel (:class:`~flectofold_model.kinematics.panel.PanelGeometry`) or a
-hexagonal one (:class:`~flectofold_model.kinematics.hexagon.HexagonPanel`); each is cast with
+hexagonal one (:class:`~flectofold_model.kinematics.hexagon_panel.HexagonPanel`); each is cast with
 its kind's mesh and tiling (:mod:`.ray_casting`).
 
 Sun directions are tabulated by their two profile angles in the panel frame,
@@ -22,7 +22,7 @@ interpolation against direct ray casting is measured in the tests and printed by
 
 import numpy as np
 
-from flectofold_model.kinematics.hexagon import HexagonPanel
+from flectofold_model.kinematics.hexagon_panel import HexagonPanel
 from flectofold_model.kinematics.kinds import batch_of, fold_model_of
 from flectofold_model.kinematics.panel import PanelGeometry
 from flectofold_model.shading.ray_casting import (blocked_fraction, choose_candidate,

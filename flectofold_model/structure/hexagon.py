@@ -1,9 +1,9 @@
 """A hexagonal Flectofold panel on the structural sheet: mesh, supports, cushion and path.
 
-The flat panel is the regular hexagon of :class:`~..kinematics.hexagon.panel.HexagonPanel`
+The flat panel is the regular hexagon of :class:`~..kinematics.hexagon_panel.HexagonPanel`
 in ``z = 0``: triangle vertices ``T_i`` at the azimuths 90 + 120 i degrees, flap tips ``H_i``
 between them, fold line ``i`` the drawn quadratic B-spline from ``T_i`` to ``T_(i+1)``
-(:mod:`~..kinematics.hexagon.fold_lines`).
+(:mod:`~..kinematics.hexagon_fold_lines`).
 
 * **Mesh**: structured per sector, the three sectors turned copies of one. The columns are
   rays from the centre ``C`` through points of the drawn fold line at even spline parameters
@@ -41,8 +41,8 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
-from flectofold_model.kinematics.hexagon.fold_lines import fold_line_spline
-from flectofold_model.kinematics.hexagon.panel import (hexagon_radius_m, HexagonBatch,
+from flectofold_model.kinematics.hexagon_fold_lines import fold_line_spline
+from flectofold_model.kinematics.hexagon_panel import (hexagon_radius_m, HexagonBatch,
                                                        SECTOR_RAD)
 from flectofold_model.structure.panel import (band_fold_angles_rad, check_mesh_counts,
                                               checker_triangles, FLAP, HINGE, MIDRIB,
@@ -91,7 +91,7 @@ class HexagonSheet:
     centre_node: int
     """Node of the centre point ``C``."""
     geometry: object
-    """The :class:`~..kinematics.hexagon.panel.HexagonPanel` meshed."""
+    """The :class:`~..kinematics.hexagon_panel.HexagonPanel` meshed."""
     fold_line_xy_m: np.ndarray
     """Dense points ``(3, P, 2)`` of the drawn fold lines [m]."""
     fold_line_outward_xy: np.ndarray

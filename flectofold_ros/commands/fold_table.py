@@ -16,8 +16,9 @@ from flectofold_model.actuation.laminate import FATIGUE_ALLOWABLE_STRAIN
 from flectofold_model.actuation.statics import FLECTOLINE_ACTUATED
 from flectofold_model.actuation.strain import panel_strain, strain_exceedance
 from flectofold_model.kinematics import reflection
-from flectofold_model.kinematics.hexagon import HEXAGON_MODULE, HexagonBatch, HexagonFoldModel
-from flectofold_model.kinematics.hexagon.panel import HexagonPanel
+from flectofold_model.kinematics.hexagon_closure import HexagonFoldModel
+from flectofold_model.kinematics.hexagon_panel import HEXAGON_MODULE, HexagonBatch
+from flectofold_model.kinematics.hexagon_panel import HexagonPanel
 from flectofold_model.structure.comparison import kinematic_rows, structural_rows
 from flectofold_model.structure.hexagon import hexagon_structural_path, HexagonMesh
 from flectofold_model.structure.panel import PanelMesh, structural_path

@@ -15,7 +15,7 @@ from flectofold_model.actuation.analysis import holding_gauge_pa
 from flectofold_model.actuation.hexagon_statics import (d_cone_core_radius_m,
                                                         geodesic_curvature, inner_radius_m)
 from flectofold_model.kinematics import DEMONSTRATOR_MODULE, HEXAGON_MODULE, HexagonPanel
-from flectofold_model.kinematics.hexagon.reflection import SectorGeometry
+from flectofold_model.kinematics.hexagon_reflection import SectorGeometry
 
 NEGLIGIBLE = Laminate(thickness_m=1e-7)
 

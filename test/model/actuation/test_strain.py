@@ -17,8 +17,9 @@ from flectofold_model.actuation.strain import (hexagon_panel_strain, hinge_width
                                                warn_if_over_allowable)
 from flectofold_model.kinematics import elastica
 from flectofold_model.kinematics.closure import FoldModel
-from flectofold_model.kinematics.hexagon import HexagonBatch, HexagonFoldModel
-from flectofold_model.kinematics.hexagon.reflection import SectorGeometry
+from flectofold_model.kinematics.hexagon_closure import HexagonFoldModel
+from flectofold_model.kinematics.hexagon_panel import HexagonBatch
+from flectofold_model.kinematics.hexagon_reflection import SectorGeometry
 from flectofold_model.kinematics.panel import PanelBatch
 from flectofold_model.kinematics.reflection import fold_angle_along_crease
 

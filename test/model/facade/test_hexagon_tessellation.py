@@ -13,9 +13,9 @@ import pytest
 from flectofold_model.facade import hexagon_cells, surfaces
 from flectofold_model.facade.description import (build_facade, DATA_DIRECTORY, DEFAULT_FACADE,
                                                  facade_path, FacadeError, load_facade)
-from flectofold_model.kinematics.hexagon import HEXAGON_MODULE, HexagonPanel
-from flectofold_model.kinematics.hexagon.panel import HexagonBatch
-from flectofold_model.kinematics.hexagon.reflection import SectorGeometry
+from flectofold_model.kinematics.hexagon_panel import HEXAGON_MODULE, HexagonPanel
+from flectofold_model.kinematics.hexagon_panel import HexagonBatch
+from flectofold_model.kinematics.hexagon_reflection import SectorGeometry
 from flectofold_model.kinematics.kinds import fold_model_of
 
 BASE = """

@@ -6,10 +6,10 @@ import numpy as np
 import pytest
 
 from flectofold_model import HEXAGON_MODULE, HexagonBatch, HexagonFoldModel, HexagonPanel
-from flectofold_model.kinematics.hexagon import cone
-from flectofold_model.kinematics.hexagon.closure import MAX_APEX_FOLD_ANGLE_RAD
-from flectofold_model.kinematics.hexagon.panel import SECTOR_RAD
-from flectofold_model.kinematics.hexagon.reflection import MID_SECTOR_RAD, SectorGeometry
+from flectofold_model.kinematics import hexagon_cone as cone
+from flectofold_model.kinematics.hexagon_closure import MAX_APEX_FOLD_ANGLE_RAD
+from flectofold_model.kinematics.hexagon_panel import SECTOR_RAD
+from flectofold_model.kinematics.hexagon_reflection import MID_SECTOR_RAD, SectorGeometry
 
 CLOSURES = np.linspace(0.0, 1.0, 11)
 

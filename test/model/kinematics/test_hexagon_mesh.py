@@ -6,11 +6,11 @@ import numpy as np
 import pytest
 
 from flectofold_model import HEXAGON_MODULE, HexagonBatch, HexagonFoldModel, HexagonPanel
-from flectofold_model.kinematics.hexagon.mesh import (DEFAULT_HEXAGON_TOPOLOGY,
+from flectofold_model.kinematics.hexagon_mesh import (DEFAULT_HEXAGON_TOPOLOGY,
                                                       flat_coordinates, hexagon_mesh,
                                                       HexagonTopology)
-from flectofold_model.kinematics.hexagon.panel import hexagon_radius_m
-from flectofold_model.kinematics.hexagon.reflection import SectorGeometry
+from flectofold_model.kinematics.hexagon_panel import hexagon_radius_m
+from flectofold_model.kinematics.hexagon_reflection import SectorGeometry
 
 CLOSURES = np.array([0.0, 0.4, 0.8, 1.0])
 TOPOLOGY = HexagonTopology(rulings_per_sector=10, rings=3, flap_columns=5)

@@ -8,9 +8,9 @@ import pytest
 from flectofold_model import (batch_of, DEMONSTRATOR_MODULE, fold_mesh, fold_model_of,
                               FoldModel, HEXAGON_MODULE, HexagonBatch, HexagonFoldModel,
                               HexagonPanel, panel_kind, PanelBatch)
-from flectofold_model.kinematics.hexagon.fold_lines import (control_points_m, drawn_radius_m,
+from flectofold_model.kinematics.hexagon_fold_lines import (control_points_m, drawn_radius_m,
                                                             fold_line_points_m)
-from flectofold_model.kinematics.hexagon.panel import hexagon_radius_m, SECTOR_RAD
+from flectofold_model.kinematics.hexagon_panel import hexagon_radius_m, SECTOR_RAD
 
 
 def test_the_module_is_a_square_metre_hexagon():

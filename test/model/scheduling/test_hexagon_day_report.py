@@ -7,7 +7,7 @@ import pytest
 
 from flectofold_model.environment import sun
 from flectofold_model.facade.description import build_facade
-from flectofold_model.kinematics.hexagon import HexagonPanel
+from flectofold_model.kinematics.hexagon_panel import HexagonPanel
 from flectofold_model.kinematics.kinds import fold_model_of
 from flectofold_model.scheduling.day_report import simulate_day
 from flectofold_model.shading.ray_casting import blocked_fraction

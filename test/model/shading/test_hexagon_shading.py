@@ -6,8 +6,9 @@ import numpy as np
 import pytest
 from shadow_area import blocked_share, hexagon_footprint
 
-from flectofold_model.kinematics.hexagon import (HEXAGON_MODULE, HexagonBatch, HexagonFoldModel,
-                                                 HexagonPanel, HexagonTopology)
+from flectofold_model.kinematics.hexagon_closure import HexagonFoldModel
+from flectofold_model.kinematics.hexagon_mesh import HexagonTopology
+from flectofold_model.kinematics.hexagon_panel import HEXAGON_MODULE, HexagonBatch, HexagonPanel
 from flectofold_model.kinematics.mesh import MeshTopology
 from flectofold_model.kinematics.panel import DEMONSTRATOR_MODULE, PanelBatch
 from flectofold_model.shading.hexagon_tiling import SIDE_NORMALS

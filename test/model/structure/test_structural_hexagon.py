@@ -8,8 +8,8 @@ import pytest
 from scipy.interpolate import BSpline
 
 from flectofold_model.actuation import HEXAGON_ACTUATED
-from flectofold_model.kinematics.hexagon import HexagonBatch
-from flectofold_model.kinematics.hexagon.fold_lines import control_points_m
+from flectofold_model.kinematics.hexagon_fold_lines import control_points_m
+from flectofold_model.kinematics.hexagon_panel import HexagonBatch
 from flectofold_model.structure.comparison import kinematic_rows, structural_rows
 from flectofold_model.structure.hexagon import (build_hexagon_sheet, hexagon_structural_path,
                                                 HexagonMesh)

@@ -8,7 +8,8 @@ import pytest
 
 from flectofold_model.actuation import DEMONSTRATOR_ACTUATED, HEXAGON_ACTUATED
 from flectofold_model.actuation.strain import hinge_width_for_allowable_m, panel_strain
-from flectofold_model.kinematics.hexagon import HEXAGON_MODULE, HexagonBatch, HexagonFoldModel
+from flectofold_model.kinematics.hexagon_closure import HexagonFoldModel
+from flectofold_model.kinematics.hexagon_panel import HEXAGON_MODULE, HexagonBatch
 from flectofold_ros.commands import fold_table
 
 STEPS = 9

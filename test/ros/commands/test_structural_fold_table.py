@@ -3,7 +3,7 @@
 import numpy as np
 
 from flectofold_model import DEMONSTRATOR_MODULE, FoldModel, PanelBatch
-from flectofold_model.kinematics.hexagon import HEXAGON_MODULE
+from flectofold_model.kinematics.hexagon_panel import HEXAGON_MODULE
 from flectofold_model.structure.hexagon import HexagonMesh
 from flectofold_model.structure.panel import PanelMesh
 from flectofold_ros.commands import fold_table

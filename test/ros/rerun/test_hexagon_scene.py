@@ -10,7 +10,7 @@ from sensor_msgs.msg import PointCloud2, PointField
 
 from flectofold_model.actuation import ATMOSPHERIC_PRESSURE_PA
 from flectofold_model.facade import DEFAULT_FACADE, load_facade
-from flectofold_model.kinematics.hexagon import DEFAULT_HEXAGON_TOPOLOGY, HexagonTopology
+from flectofold_model.kinematics.hexagon_mesh import DEFAULT_HEXAGON_TOPOLOGY, HexagonTopology
 from flectofold_model.kinematics.kinds import fold_model_of
 from flectofold_ros.recording import BagError, SegmentedBagWriter
 from flectofold_ros.rerun.bag_to_rrd import convert

@@ -14,7 +14,7 @@ import numpy.typing as npt
 from scipy.interpolate import BSpline
 
 from flectofold_model._validate import FloatArray
-from flectofold_model.kinematics.hexagon.panel import HexagonBatch, SECTOR_RAD
+from flectofold_model.kinematics.hexagon_panel import HexagonBatch, SECTOR_RAD
 
 _KNOTS = np.array([0.0, 0.0, 0.0, 1.0, 1.0, 1.0])
 

@@ -30,7 +30,7 @@ import numpy as np
 import numpy.typing as npt
 
 from flectofold_model._validate import FloatArray
-from flectofold_model.kinematics.hexagon.panel import HexagonBatch, SECTOR_RAD
+from flectofold_model.kinematics.hexagon_panel import HexagonBatch, SECTOR_RAD
 
 _NODES, _WEIGHTS = np.polynomial.legendre.leggauss(48)
 #: Largest amplitude for which the unit-speed condition can hold (``|e'| <= 1``).

@@ -19,9 +19,9 @@ import numpy as np
 import numpy.typing as npt
 
 from flectofold_model._validate import FloatArray, FloatOrArray
-from flectofold_model.kinematics.hexagon import cone
-from flectofold_model.kinematics.hexagon.fold_lines import drawn_radius_m
-from flectofold_model.kinematics.hexagon.panel import HexagonBatch, SECTOR_RAD
+from flectofold_model.kinematics import hexagon_cone as cone
+from flectofold_model.kinematics.hexagon_fold_lines import drawn_radius_m
+from flectofold_model.kinematics.hexagon_panel import HexagonBatch, SECTOR_RAD
 
 MID_SECTOR_RAD = SECTOR_RAD / 2
 

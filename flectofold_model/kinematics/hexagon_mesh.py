@@ -6,7 +6,7 @@ vertices from the centre out to the crease; then the three flaps, each ``m + 1``
 ``flap_columns`` vertices from the crease out to the hexagon's edge. The crease vertices are
 duplicated between the cone and the flaps so each side keeps its own normal.
 
-The cone is the polyhedral cone of :func:`~.cone.discrete_ruling_directions`: consecutive
+The cone is the polyhedral cone of :func:`~.hexagon_cone.discrete_ruling_directions`: consecutive
 rulings make exactly their flat angle, so every triangle keeps its flat edge lengths
 (:func:`flat_coordinates`) and the sectors close around the centre. The fold plane of each
 flap is the plane through the mesh's own ``T_i'``, ``M_i'``, ``T_(i+1)'``, so the crease
@@ -26,10 +26,10 @@ import numpy as np
 import numpy.typing as npt
 
 from flectofold_model._validate import FloatArray, IntArray
-from flectofold_model.kinematics.hexagon import cone
-from flectofold_model.kinematics.hexagon.panel import (hexagon_radius_m, HexagonBatch,
+from flectofold_model.kinematics import hexagon_cone as cone
+from flectofold_model.kinematics.hexagon_panel import (hexagon_radius_m, HexagonBatch,
                                                        SECTOR_RAD)
-from flectofold_model.kinematics.hexagon.reflection import (centre_point, plane_through, reflect,
+from flectofold_model.kinematics.hexagon_reflection import (centre_point, plane_through, reflect,
                                                             rotation_about_z)
 from flectofold_model.kinematics.mesh import check_counts, FoldMesh, output_arrays
 

@@ -27,13 +27,13 @@ import numpy.typing as npt
 from scipy.optimize.elementwise import find_root
 
 from flectofold_model._validate import BoolArray, FloatArray, in_range, IntArray
+from flectofold_model.kinematics import hexagon_cone as cone
 from flectofold_model.kinematics.closure_map import LinearClosureMap
-from flectofold_model.kinematics.hexagon import cone
-from flectofold_model.kinematics.hexagon.mesh import (DEFAULT_HEXAGON_TOPOLOGY, hexagon_mesh,
+from flectofold_model.kinematics.hexagon_mesh import (DEFAULT_HEXAGON_TOPOLOGY, hexagon_mesh,
                                                       HexagonTopology)
-from flectofold_model.kinematics.hexagon.panel import (hexagon_radius_m, HexagonBatch,
+from flectofold_model.kinematics.hexagon_panel import (hexagon_radius_m, HexagonBatch,
                                                        SECTOR_RAD)
-from flectofold_model.kinematics.hexagon.reflection import SectorGeometry
+from flectofold_model.kinematics.hexagon_reflection import SectorGeometry
 from flectofold_model.kinematics.mesh import FoldMesh
 
 #: Largest apex fold angle [rad]: the flaps lean 30 degrees past upright over the centre.
@@ -112,7 +112,7 @@ def _rise_for_fold_angle(batch: HexagonBatch, fold_angle_rad: npt.ArrayLike,
 
 
 class HexagonFoldModel(LinearClosureMap):
-    """The closure map of a :class:`~.panel.HexagonBatch`, vectorised over panels.
+    """The closure map of a :class:`~.hexagon_panel.HexagonBatch`, vectorised over panels.
 
     Construction finds each panel's open (pre-fold) and closed rises. It raises
     ``ValueError`` for a pre-fold at or beyond the closed limit and for a hinge zone narrower
