@@ -8,10 +8,12 @@ the node turns them into messages (:mod:`flectofold_ros.runtime.diagnostics`).
 """
 
 import math
+from typing import Any, Optional
 
 import numpy as np
 
-from flectofold_model.control import Fault, SetpointGuards, SetpointState
+from flectofold_model._validate import FloatArray, IntArray
+from flectofold_model.control import Fault, PanelLoops, SetpointGuards, SetpointState
 from flectofold_ros.wire import contract
 
 #: REP-107 levels, as ``diagnostic_msgs/DiagnosticStatus`` gives them (one byte each).
@@ -31,9 +33,10 @@ class ProcessReport:
         The loop's period [s], against which the tick's jitter is measured.
     """
 
-    def __init__(self, count, control_period_s):
+    def __init__(self, count: int, control_period_s: float) -> None:
         self.control_period_s = control_period_s
-        self.tick_intervals_s, self._last_tick_s = [], None
+        self.tick_intervals_s: list[float] = []
+        self._last_tick_s: Optional[float] = None
         self.tick_cpu_s = 0.0
         """CPU time of the ticks so far [s]."""
         self.states_published = 0
@@ -47,25 +50,28 @@ class ProcessReport:
         self.rejected_since_report = np.zeros(count, dtype=np.int64)
         """Setpoints refused per panel since its last status."""
 
-    def tick(self, now_s):
+    def tick(self, now_s: float) -> None:
         """Count a tick at ``now_s`` [s of ROS time]."""
         if self._last_tick_s is not None and now_s > self._last_tick_s:
             self.tick_intervals_s.append(now_s - self._last_tick_s)
         self._last_tick_s = now_s
 
-    def refuse_fault_request(self, reason):
+    def refuse_fault_request(self, reason: str) -> None:
         """Count a refused fault request."""
         self.fault_requests_refused += 1
         self._fault_refusals_since += 1
         self.last_fault_refusal = reason
 
-    def refuse_setpoints(self, reason):
+    def refuse_setpoints(self, reason: str) -> None:
         """Count a refused ``/facade/setpoints`` message."""
         self.setpoint_messages_refused += 1
         self._setpoint_refusals_since += 1
         self.last_setpoints_refusal = reason
 
-    def panel(self, index, loops, guards, states, tracked, feedback, injected):
+    def panel(self, index: int, loops: PanelLoops, guards: SetpointGuards,
+              states: Optional[IntArray], tracked: FloatArray,
+              feedback: tuple[FloatArray, FloatArray],
+              injected: str) -> tuple[bytes, str, dict[str, Any]]:
         """Return panel ``index``'s status: level, message, figures.
 
         Parameters
@@ -110,7 +116,7 @@ class ProcessReport:
         if fault is not Fault.NONE:
             level, message = ERROR, f'circuit fault: {fault.value}'
         closure, fold_angle = feedback
-        figures = {
+        figures: dict[str, Any] = {
             'setpoint': float(guards.last_valid[index]),
             'tracked_closure': float(tracked[index]),
             'closure': float(closure[index]), 'fold_angle_rad': float(fold_angle[index]),
@@ -124,11 +130,12 @@ class ProcessReport:
         }
         return level, message, figures
 
-    def reported(self, panels):
+    def reported(self, panels: range) -> None:
         """Start the panels of range ``panels`` counting afresh: their statuses went out."""
         self.rejected_since_report[panels.start:panels.stop] = 0
 
-    def process(self, loops, panel_count):
+    def process(self, loops: PanelLoops,
+                panel_count: int) -> tuple[bytes, str, dict[str, Any]]:
         """Return the process's status before its domain's: level, message, figures.
 
         The tick's jitter (|interval - period|, median and 99th percentile) covers the ticks
@@ -139,7 +146,7 @@ class ProcessReport:
         self.tick_intervals_s = []
         jitter = np.abs(intervals - self.control_period_s)
         p50, p99 = (np.percentile(jitter, [50, 99]) if len(jitter) else (math.nan, math.nan))
-        figures = {
+        figures: dict[str, Any] = {
             'panels': panel_count, 'ticks': len(intervals),
             contract.DIAGNOSTIC_TICK_JITTER_P50_S: float(p50),
             contract.DIAGNOSTIC_TICK_JITTER_P99_S: float(p99),
@@ -163,7 +170,7 @@ class ProcessReport:
                 level, message = ERROR, f'{message}; comms lost: {figures["modbus_last_error"]}'
         return level, message, figures
 
-    def refusals(self, level, message):
+    def refusals(self, level: bytes, message: str) -> tuple[bytes, str]:
         """Add the refusals since the last call to a status: WARN at least after any."""
         for count, what, reason in (
                 (self._fault_refusals_since, 'fault request(s)', self.last_fault_refusal),
