@@ -2,6 +2,8 @@
 
 - :mod:`.scheduler`: the per-period decision under dwell, deadband, rate limit, daily cap, air
   budget, storm latch and DNI gate (:class:`Scheduler`);
+- :mod:`.storm`: the storm latch on wind samples, and a coordinator's account of its trips and
+  releases;
 - :mod:`.facade_schedule`: sun vector -> commanded closure per panel of a facade;
 - :mod:`.day_report`: a facade's day, what its schedule achieved, against two baselines;
 - :mod:`.scheduled_closure`: the closure the schedule commands at one instant of a clear day.

@@ -11,6 +11,11 @@ air budget.
 The table is built once for a representative panel, the facade's median panel by area: the
 panels of one facade differ by millimetres, and the table's own interpolation error (about
 0.01 in blocked fraction) is of the same order.
+
+The target rule judges each candidate over a look-ahead window: the sun now, then the sun at
+the next ``floor(look_ahead_s / period_s)`` multiples of ``control.period_s`` in UTC Unix time
+(:func:`look_ahead_times`), where an ephemeris of that step has them cached. The schedule
+also owns the coordinator's account of the storm latch (:class:`~.storm.StormEvents`).
 """
 
 from dataclasses import fields
@@ -27,6 +32,7 @@ from flectofold_model.scheduling.predictive import (DEFAULT_CONTROLLER, plan_inp
                                                     PredictiveController,
                                                     PredictiveParameters)
 from flectofold_model.scheduling.scheduler import Scheduler, SchedulerParameters
+from flectofold_model.scheduling.storm import StormEvents
 from flectofold_model.shading.table import ShadingTable
 from flectofold_model.structure.facade_map import structural_close_air_nl
 
@@ -55,11 +61,73 @@ def full_close_air_nl(facade):
     return (closed - opened) / ATMOSPHERIC_PRESSURE_PA * 1e3
 
 
+def look_ahead_steps(period_s, look_ahead_s):
+    """Return the number of decision periods a look-ahead window reaches past now.
+
+    ``floor(look_ahead_s / period_s)``, with 1e-9 of slack so that a window of a whole number
+    of periods counts all of them.
+
+    Parameters
+    ----------
+    period_s : float
+        Decision period [s], ``> 0``.
+    look_ahead_s : float
+        Length of the window [s]; 0 or less: none.
+
+    Returns
+    -------
+    int
+    """
+    return max(0, math.floor(look_ahead_s / period_s + 1e-9))
+
+
+def look_ahead_times(now_s, period_s, look_ahead_s):
+    """Return the instants after ``now_s`` of a look-ahead window on the decision grid.
+
+    The grid is the multiples of ``period_s`` in UTC Unix time; the window takes the
+    :func:`look_ahead_steps` multiples that follow ``now_s`` (strictly: a decision on the
+    grid does not repeat its own instant).
+
+    Parameters
+    ----------
+    now_s : float
+        Instant of the decision [s, UTC Unix time].
+    period_s : float
+        Decision period [s], ``> 0``.
+    look_ahead_s : float
+        Length of the window [s]; 0 or less: none.
+
+    Returns
+    -------
+    list of float
+        The instants [s], increasing; empty when the window is shorter than one period.
+    """
+    first = math.floor(now_s / period_s) + 1
+    return [(first + k) * period_s for k in range(look_ahead_steps(period_s, look_ahead_s))]
+
+
 class FacadeSchedule:
-    """The per-period decision of a facade: sun vector -> commanded closure per panel."""
+    """The per-period decision of a facade: sun vector -> commanded closure per panel.
+
+    Parameters
+    ----------
+    facade : Facade
+        The facade; its ``control`` section gives the limits, the controller, the decision
+        period (``period_s``, default 60 s) and the look-ahead (``look_ahead_s``, default 0 s).
+    start_s : float
+        Clock at construction [s, UTC Unix time]; no step may be earlier.
+    table : ShadingTable, optional
+        The representative panel's table; built (seconds) when not given.
+    wind_timeout_s : float
+        A wind sample counts until the next one but at most this long [s], ``> 0``.
+    """
 
     def __init__(self, facade, start_s=0.0, table=None, wind_timeout_s=60.0):
         self.facade = facade
+        self.period_s = float(facade.control.get('period_s', 60.0))
+        """Decision period [s]: the step of the look-ahead grid."""
+        self.look_ahead_s = float(facade.control.get('look_ahead_s', 0.0))
+        """Length of the target rule's look-ahead window [s]."""
         self.shading_target = facade.control.get('shading_target', 0.9)
         self.table = table if table is not None else ShadingTable(representative_panel(facade))
         if not isinstance(self.table, ShadingTable):
@@ -69,8 +137,11 @@ class FacadeSchedule:
         self.scheduler = Scheduler(len(facade), air_nl, self.parameters,
                                    initial_closure=self.parameters.default_closure,
                                    start_s=start_s, wind_timeout_s=wind_timeout_s)
+        self.storm = StormEvents(self.scheduler)
+        """The coordinator's account of the scheduler's storm latch."""
         self.controller = facade.control.get('controller', DEFAULT_CONTROLLER)
         """'predictive' (the receding-horizon plan) or 'target' (the target rule)."""
+        self._grid_ephemeris = SunEphemeris(facade.site, self.period_s)
         self.predictive = None
         if self.controller == 'predictive':
             settings = PredictiveParameters.of(facade.control)
@@ -85,6 +156,19 @@ class FacadeSchedule:
         sun = _checked_sun(sun_enu)
         in_panels = self.facade.sun_in_panel_frames(sun)
         return self.table.choose(in_panels, self.shading_target)
+
+    def sun_window(self, now_s, sun_enu):
+        """Return the sun the target rule judges at ``now_s`` [s, UTC Unix time].
+
+        The sun now ``sun_enu`` (3,) in ENU, followed by the ephemeris at the
+        :func:`look_ahead_times` of the decision grid: an array (W, 3), W >= 1, under the
+        target rule with ``look_ahead_s > 0``; otherwise ``sun_enu`` itself.
+        """
+        if self.look_ahead_s <= 0.0 or self.controller != 'target':
+            return sun_enu
+        now = np.asarray(sun_enu, dtype=float).reshape(1, 3)
+        times = look_ahead_times(now_s, self.period_s, self.look_ahead_s)
+        return np.vstack([now, self._grid_ephemeris.enu(times)]) if times else now
 
     def plan_inputs(self, now_s, sun_enu):
         """Return the predictive controller's view of the horizon from ``now_s``.
@@ -109,21 +193,25 @@ class FacadeSchedule:
         ``sun_enu`` None (no sun known): each panel's desired closure is its commanded one,
         so automatic panels hold while a storm still moves the rest. The predictive
         controller takes the first vector of a window (the sun now) and the ephemeris
-        ahead; it replaces the DNI gate (the scheduler's gate is not fed).
+        ahead; it replaces the DNI gate (the scheduler's gate is not fed). The step is noted
+        in :attr:`storm` as a decision on the latch as the step leaves it.
         """
         if self.predictive is None:
             desired = (self.scheduler.commanded_closure if sun_enu is None
                        else self.desired_closure(sun_enu))
-            return self.scheduler.step(now_s, desired, wind_m_s=wind_m_s,
-                                       dni_w_m2=dni_w_m2, faulted=faulted)
-        if sun_enu is None:
-            desired = self.scheduler.commanded_closure
+            result = self.scheduler.step(now_s, desired, wind_m_s=wind_m_s,
+                                         dni_w_m2=dni_w_m2, faulted=faulted)
         else:
-            now = _checked_sun(sun_enu).reshape(-1, 3)[0]
-            desired = self.predictive.desired(self.scheduler.commanded_closure,
-                                              self.plan_inputs(float(now_s), now),
-                                              dni_now_w_m2=dni_w_m2)
-        return self.scheduler.step(now_s, desired, wind_m_s=wind_m_s, faulted=faulted)
+            if sun_enu is None:
+                desired = self.scheduler.commanded_closure
+            else:
+                now = _checked_sun(sun_enu).reshape(-1, 3)[0]
+                desired = self.predictive.desired(self.scheduler.commanded_closure,
+                                                  self.plan_inputs(float(now_s), now),
+                                                  dni_now_w_m2=dni_w_m2)
+            result = self.scheduler.step(now_s, desired, wind_m_s=wind_m_s, faulted=faulted)
+        self.storm.stepped()
+        return result
 
 
 def _checked_sun(sun_enu):

@@ -17,7 +17,7 @@ import numpy as np
 from flectofold_model._validate import real_scalar
 from flectofold_model.environment.clear_sky import clear_sky_dni
 from flectofold_model.environment.sun import solar_position
-from flectofold_model.scheduling.facade_schedule import FacadeSchedule
+from flectofold_model.scheduling.facade_schedule import FacadeSchedule, look_ahead_steps
 
 
 def decision_times(facade, epoch_s):
@@ -39,7 +39,7 @@ def scheduled_closure(facade, epoch_s, table=None):
     """
     decisions = decision_times(facade, epoch_s)
     period = float(facade.control.get('period_s', 60.0))
-    ahead = math.floor(float(facade.control.get('look_ahead_s', 0.0)) / period + 1e-9)
+    ahead = look_ahead_steps(period, float(facade.control.get('look_ahead_s', 0.0)))
     times = decisions[0] + period * np.arange(len(decisions) + ahead)
     sun = solar_position(times, facade.site).enu
     dni = clear_sky_dni(decisions, facade.site)

@@ -311,6 +311,19 @@ class Scheduler:
         """Latest instant the storm latch was evaluated at [s]; later calls may not be earlier."""
         return self._storm.now_s
 
+    @property
+    def last_step_s(self):
+        """Instant of the last :meth:`step` [s]; ``start_s`` before the first."""
+        return self._now_s
+
+    @property
+    def earliest_step_s(self):
+        """Earliest instant the next :meth:`step` may be at [s].
+
+        Neither before the last step nor before the storm latch's latest evaluation.
+        """
+        return max(self._now_s, self._storm.now_s)
+
     def wind_m_s(self, now_s):
         """Return the wind sample that counts at ``now_s`` [m/s]; None if none or stale."""
         return self._storm.wind_m_s(now_s)
@@ -609,7 +622,7 @@ class Scheduler:
 
     def _check_step(self, now_s, desired_closure, wind_m_s, dni_w_m2, faulted):
         now = real_scalar('now_s', now_s)
-        last_s = max(self._now_s, self._storm.now_s)
+        last_s = self.earliest_step_s
         if now < last_s:
             raise ValueError(f'now_s must not go backwards: got {now:.3f} s after '
                              f'{last_s:.3f} s')

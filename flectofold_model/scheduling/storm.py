@@ -23,9 +23,14 @@ position and when it may come back. The rule (speeds in m/s, times in s):
 With the defaults (10 m/s for 5 s, 7 m/s for 900 s) and a 1 Hz anemometer the latch trips
 5 s after the first sample above 10 m/s if every later one stays above, and releases 900 s
 after the first sample of a calm below 7 m/s that no sample at or above 7 m/s interrupts.
+
+:class:`StormEvents` is what a coordinator keeps of a scheduler's latch between its
+decisions (:class:`~.facade_schedule.FacadeSchedule` owns one): which trip or release it has
+reported, which state its last decision saw, and when the latch must be evaluated next.
 """
 
 import math
+from typing import NamedTuple, Optional
 
 import numpy as np
 
@@ -144,3 +149,145 @@ class StormLatch:
             raise ValueError(f'{name} must not go backwards: got {time_s:.3f} s after '
                              f'{self._now_s:.3f} s')
         return time_s
+
+
+class StormChange(NamedTuple):
+    """A trip or a release of the storm latch."""
+
+    latched: bool
+    """True for a trip, False for a release."""
+    at_s: float
+    """Instant of the change [s]: the end of its hold, not the evaluation that found it."""
+
+    def describe(self):
+        """Return the change as one line of a log, its instant to the millisecond."""
+        return (f'storm latch {"tripped" if self.latched else "released"} at {self.at_s:.3f} '
+                f's: panels {"to the storm position" if self.latched else "back to automatic"}')
+
+
+class StormStatus(NamedTuple):
+    """The storm latch as a diagnostics report shows it at one instant."""
+
+    latched: bool
+    """Whether the latch is set."""
+    wind_m_s: Optional[float]
+    """The sample that counts [m/s]; None when there is none, it is stale, or the instant is
+    before the latch's last evaluation."""
+    due_in_s: Optional[float]
+    """Time from the instant to the pending trip or release [s]; None while none is due."""
+
+
+class StormUpdate(NamedTuple):
+    """What one evaluation of the storm latch asks of a coordinator."""
+
+    change: Optional[StormChange]
+    """A trip or release not reported before, to report now; else None."""
+    decide: bool
+    """The latch differs from before the evaluation: decide at once."""
+
+
+class StormEvents:
+    """A coordinator's account of a scheduler's storm latch: reports, decisions, evaluations.
+
+    The rule (times in s, wind in m/s):
+
+    * **Report once.** A trip or release is reported by whichever comes to it first: an
+      evaluation of the latch (a sample, a timer) or a decision's step. A state that is
+      reported is not reported again; the first report compares with the latch the
+      scheduler started with.
+    * **Decide at once.** An evaluation that changes the latch asks for a decision then,
+      not at the next decision period.
+    * **Decide without the sun.** While the latch is set, or while it differs from what the
+      last decision saw, a decision is due even without a sun vector (the automatic panels
+      hold, the storm moves the rest).
+    * **Never backwards.** A sample or an evaluation before the latch's latest evaluation
+      (:attr:`~.scheduler.Scheduler.storm_time_s`) is not taken.
+    * **Evaluate while due.** Between samples the latch needs evaluating only while a trip
+      or release is due (:attr:`due_s` not None).
+
+    Parameters
+    ----------
+    scheduler : Scheduler
+        The :class:`~.scheduler.Scheduler` whose latch this follows; only its storm
+        interface is used (``storm_latched``, ``storm_time_s``, ``storm_due_s``,
+        ``storm_changed_s``, ``wind_m_s``, ``observe_wind``, ``advance_storm``).
+    """
+
+    def __init__(self, scheduler):
+        self.scheduler = scheduler
+        self._reported = scheduler.storm_latched
+        self._decided = scheduler.storm_latched
+
+    @property
+    def latched(self):
+        """Whether the latch is set."""
+        return self.scheduler.storm_latched
+
+    @property
+    def due_s(self):
+        """Instant of the pending trip or release [s]; None while the latch needs no timer."""
+        return self.scheduler.storm_due_s
+
+    @property
+    def decision_due(self):
+        """Whether the storm needs a decision even without a fresh sun."""
+        latched = self.scheduler.storm_latched
+        return latched or latched != self._decided
+
+    def behind(self, at_s):
+        """Whether ``at_s`` [s] is before the latch's latest evaluation (so not taken)."""
+        return at_s < self.scheduler.storm_time_s
+
+    def observe_wind(self, wind_m_s, at_s):
+        """Take a gust sample [m/s, >= 0] that arrived at ``at_s`` [s].
+
+        Returns
+        -------
+        StormUpdate or None
+            None, and the sample not taken, when ``at_s`` is :meth:`behind`.
+        """
+        if self.behind(at_s):
+            return None
+        was = self.scheduler.storm_latched
+        self.scheduler.observe_wind(wind_m_s, at_s)
+        return self._update(was)
+
+    def advance(self, now_s):
+        """Evaluate the latch at ``now_s`` [s] on the held sample.
+
+        Returns
+        -------
+        StormUpdate or None
+            None, and nothing evaluated, when ``now_s`` is :meth:`behind`.
+        """
+        if self.behind(now_s):
+            return None
+        was = self.scheduler.storm_latched
+        self.scheduler.advance_storm(now_s)
+        return self._update(was)
+
+    def stepped(self):
+        """Note that a decision's step has run on the latch as it is now."""
+        self._decided = self.scheduler.storm_latched
+
+    def report(self):
+        """Return the latch's change not yet reported, a :class:`StormChange`; or None.
+
+        A decision's step evaluates the latch too: when it reaches a trip or release instant
+        before a sample or a timer does, the change is reported after the step.
+        """
+        latched = self.scheduler.storm_latched
+        if latched == self._reported:
+            return None
+        self._reported = latched
+        return StormChange(latched, self.scheduler.storm_changed_s)
+
+    def status(self, now_s):
+        """Return the :class:`StormStatus` at ``now_s`` [s]."""
+        scheduler = self.scheduler
+        wind = None if self.behind(now_s) else scheduler.wind_m_s(now_s)
+        due = scheduler.storm_due_s
+        return StormStatus(scheduler.storm_latched, wind, None if due is None else due - now_s)
+
+    def _update(self, was):
+        return StormUpdate(self.report(), self.scheduler.storm_latched != was)

@@ -6,6 +6,10 @@ every panel's commanded closure in one ``/facade/setpoints`` message; between de
 repeats it every ``setpoint_period_s`` as the panels' watchdog heartbeat. The storm latch is
 not left to the decision period: each wind sample goes to it on arrival, a short timer
 evaluates it while a trip or release is due, and a change is decided and published at once.
+What to report, when to decide and the look-ahead grid are the schedule's
+(:class:`~flectofold_model.scheduling.storm.StormEvents`,
+:meth:`~flectofold_model.scheduling.FacadeSchedule.sun_window`); the node feeds it ROS time
+[s] and wind [m/s] and publishes and logs what it returns.
 Topics, parameters and QoS: ``msg_docs/coordinator_node.md``.
 """
 
@@ -17,7 +21,6 @@ from rclpy.clock import Clock, ClockType
 from rclpy.node import Node
 from sensor_msgs.msg import JointState
 
-from flectofold_model.environment import SunEphemeris
 from flectofold_model.facade import DEFAULT_FACADE, load_facade
 from flectofold_model.scheduling import FacadeSchedule
 from flectofold_model.scheduling.facade_schedule import representative_panel
@@ -61,8 +64,7 @@ class CoordinatorNode(Node):
         path = self._value('facade_file') or DEFAULT_FACADE
         self.facade = load_facade(path)
         self.period_s = float(self.facade.control.get('period_s', 60.0))
-        self.look_ahead_s = float(self.facade.control.get('look_ahead_s', 0.0))
-        self._ephemeris = SunEphemeris(self.facade.site, self.period_s)
+        look_ahead_s = float(self.facade.control.get('look_ahead_s', 0.0))
         self.schedule = None
         self._table = ShadingTable(representative_panel(self.facade))  # seconds: not in a callback
         self.commanded = None
@@ -72,10 +74,7 @@ class CoordinatorNode(Node):
         self.peak_filling = 0
         self.rejected = Counter()
         self.overrides_refused_in_storm = 0
-        self._storm_decided = False
-        self._storm_logged = False  # the latch as last logged
         self._sun_decided = False
-        self._last_decision_s = -math.inf
         self._sun = None
         self._dni = None
         self._faulted = dict.fromkeys(self.facade.panel_ids, False)
@@ -106,7 +105,7 @@ class CoordinatorNode(Node):
         self.controller = self.facade.control.get('controller', DEFAULT_CONTROLLER)
         self.get_logger().info(f'{self.facade.name}: {len(self.facade)} panels, a decision '
                                f'every {self.period_s:g} s, controller {self.controller}'
-                               + (f', look-ahead {self.look_ahead_s:g} s'
+                               + (f', look-ahead {look_ahead_s:g} s'
                                   if self.controller == 'target' else ''))
 
     def _value(self, name):
@@ -159,13 +158,11 @@ class CoordinatorNode(Node):
         if reading[0] < self.schedule.parameters.wind_on_m_s and \
                 self._two_sources(contract.WIND_SPEED.name):
             return  # storm_only: a second source can trip the latch, never keep or release it
-        scheduler = self.schedule.scheduler
-        if reading[1] < scheduler.storm_time_s:
+        update = self.schedule.storm.observe_wind(*reading)
+        if update is None:
             self._reject('wind_speed', f'the clock went back to {reading[1]:.3f} s')
             return
-        was = scheduler.storm_latched
-        scheduler.observe_wind(*reading)
-        self._storm_changed(was)
+        self._storm_changed(update)
 
     def _on_dni(self, message):
         if self._two_sources(contract.DNI.name):
@@ -239,38 +236,23 @@ class CoordinatorNode(Node):
         now = self._now_s()
         if self.schedule is None or now <= 0.0:
             return
-        scheduler = self.schedule.scheduler
-        if now < scheduler.storm_time_s:
-            return
-        was = scheduler.storm_latched
-        scheduler.advance_storm(now)
-        self._storm_changed(was)
+        update = self.schedule.storm.advance(now)
+        if update is not None:
+            self._storm_changed(update)
 
-    def _storm_changed(self, was):
-        """Decide at once when the latch changed; run the storm timer while one is due."""
-        scheduler = self.schedule.scheduler
-        self._log_storm_change()
-        if scheduler.storm_latched != was:
+    def _storm_changed(self, update):
+        """Log and decide what an evaluation of the latch asks; run the timer while one is due."""
+        self._log_storm_change(update.change)
+        if update.decide:
             self._decide()
-        if scheduler.storm_due_s is None:
+        if self.schedule.storm.due_s is None:
             self._storm_timer.cancel()
         elif self._storm_timer.is_canceled():
             self._storm_timer.reset()
 
-    def _log_storm_change(self):
-        """Log a trip or a release once, whichever evaluation of the latch made it.
-
-        A decision's step evaluates the latch too: when it comes to a trip or release instant
-        before the storm timer does (a loaded process, a fast clock), the change is its.
-        """
-        scheduler = self.schedule.scheduler
-        if scheduler.storm_latched == self._storm_logged:
-            return
-        self._storm_logged = scheduler.storm_latched
-        self.get_logger().warning(
-            f'storm latch {"tripped" if scheduler.storm_latched else "released"} at '
-            f'{scheduler.storm_changed_s:.3f} s: panels '
-            f'{"to the storm position" if scheduler.storm_latched else "back to automatic"}')
+    def _log_storm_change(self, change):
+        if change is not None:
+            self.get_logger().warning(change.describe())
 
     # -- decisions --------------------------------------------------------------------------
 
@@ -279,49 +261,31 @@ class CoordinatorNode(Node):
         if self.schedule is None and now > 0.0:
             self.schedule = FacadeSchedule(self.facade, start_s=now, table=self._table,
                                            wind_timeout_s=self._value('weather_timeout_s'))
-            self._last_decision_s = now
         return self.schedule is not None
 
     def _decision_time(self):
-        return max(self._now_s(), self._last_decision_s)
+        return max(self._now_s(), self.schedule.scheduler.last_step_s)
 
     def _fresh(self, reading, timeout_s):
         if reading is None or self._now_s() - reading[1] > timeout_s:
             return None
         return reading[0]
 
-    def _sun_window(self, now_s, sun):
-        if self.look_ahead_s <= 0.0 or self.controller != 'target':
-            return sun
-        # the predictions lie on the decision period's grid, where the ephemeris has them
-        first = math.floor(now_s / self.period_s) + 1
-        times = [(first + k) * self.period_s
-                 for k in range(math.floor(self.look_ahead_s / self.period_s + 1e-9))]
-        return [sun, *self._ephemeris.enu(times)] if times else [sun]
-
-    def _storm_decision_due(self):
-        """Whether the storm needs a decision even without a fresh sun."""
-        if self.schedule is None:
-            return False
-        latched = self.schedule.scheduler.storm_latched
-        return latched or latched != self._storm_decided
-
     def _decide(self):
         """Decide every panel's closure; without a fresh sun only for the storm (others hold)."""
         now = self._now_s()
         sun = self._fresh(self._sun, self._value('sun_timeout_s'))
-        if now <= 0.0 or (sun is None and not self._storm_decision_due()):
+        if now <= 0.0 or (sun is None and (self.schedule is None
+                                           or not self.schedule.storm.decision_due)):
             return
         self._ensure_schedule(now)
-        if now < max(self._last_decision_s, self.schedule.scheduler.storm_time_s):
+        if now < self.schedule.scheduler.earliest_step_s:
             return
         faulted = [self._faulted[p] for p in self.facade.panel_ids]
         result = self.schedule.step(
-            now, None if sun is None else self._sun_window(now, sun),
+            now, None if sun is None else self.schedule.sun_window(now, sun),
             dni_w_m2=self._fresh(self._dni, self._value('weather_timeout_s')), faulted=faulted)
-        self._log_storm_change()
-        self._last_decision_s = now
-        self._storm_decided = self.schedule.scheduler.storm_latched
+        self._log_storm_change(self.schedule.storm.report())
         self._sun_decided = self._sun_decided or sun is not None
         self.last_result, self.commanded = result, result.closure
         self.decisions += 1
@@ -365,15 +329,14 @@ class CoordinatorNode(Node):
                   'rejected_inputs': sum(self.rejected.values()),
                   'overrides_refused_in_storm': self.overrides_refused_in_storm}
         if self.schedule is not None:
-            scheduler = self.schedule.scheduler
-            now = self._now_s()
-            wind = scheduler.wind_m_s(now) if now >= scheduler.storm_time_s else None
-            due = scheduler.storm_due_s
-            values.update(storm_latched=scheduler.storm_latched,
-                          wind_m_s='stale' if wind is None else f'{wind:.1f}',
-                          storm_change_due_in_s='none' if due is None else f'{due - now:.1f}',
-                          mean_commanded_closure=f'{scheduler.commanded_closure.mean():.3f}')
-            if scheduler.storm_latched:
+            storm = self.schedule.storm.status(self._now_s())
+            values.update(storm_latched=storm.latched,
+                          wind_m_s='stale' if storm.wind_m_s is None else f'{storm.wind_m_s:.1f}',
+                          storm_change_due_in_s=('none' if storm.due_in_s is None
+                                                 else f'{storm.due_in_s:.1f}'),
+                          mean_commanded_closure=(
+                              f'{self.schedule.scheduler.commanded_closure.mean():.3f}'))
+            if storm.latched:
                 level, message = diagnostics.WARN, 'storm: panels at the storm position'
         level, message = report_domain(self.presence, self.sources, level, message, values)
         if self.last_result is not None:

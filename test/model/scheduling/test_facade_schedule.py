@@ -5,8 +5,10 @@ import math
 import numpy as np
 import pytest
 
+from flectofold_model.environment import sun_vector_enu
 from flectofold_model.facade.description import build_facade
 from flectofold_model.scheduling.facade_schedule import (FacadeSchedule, full_close_air_nl,
+                                                         look_ahead_steps, look_ahead_times,
                                                          representative_panel)
 from flectofold_model.scheduling.scheduler import Reason
 from flectofold_model.shading.table import ShadingTable
@@ -84,3 +86,78 @@ def test_bad_sun_vectors_are_refused(schedule, bad):
 def test_a_table_of_the_wrong_kind_is_refused(facade):
     with pytest.raises(TypeError, match='ShadingTable'):
         FacadeSchedule(facade, table='table')
+
+
+#: 2026-06-21 10:00 UTC, on the 60 s grid [s].
+NOON_S = 1_782_036_000.0
+
+
+def target_schedule(small_facade_text, table, look_ahead_s):
+    facade = build_facade(small_facade_text(
+        f'controller: target, period_s: 60, look_ahead_s: {look_ahead_s}'))
+    return FacadeSchedule(facade, start_s=NOON_S, table=table)
+
+
+@pytest.mark.parametrize('look_ahead_s, steps', [(180.0, 3), (180.0 - 1e-6, 2), (60.0, 1),
+                                                 (60.0 - 1e-6, 0), (0.0, 0), (-60.0, 0)])
+def test_a_window_counts_the_whole_periods_it_reaches(look_ahead_s, steps):
+    assert look_ahead_steps(60.0, look_ahead_s) == steps
+
+
+def test_a_window_of_a_whole_number_of_periods_counts_all_of_them_despite_rounding():
+    assert 0.3 / 0.1 < 3.0  # 2.9999999999999996
+    assert look_ahead_steps(0.1, 0.3) == 3
+
+
+def test_the_window_takes_the_grid_instants_after_a_decision_on_the_grid():
+    assert look_ahead_times(NOON_S, 60.0, 180.0) == [NOON_S + 60.0, NOON_S + 120.0,
+                                                     NOON_S + 180.0]
+
+
+def test_the_window_of_a_decision_just_before_the_grid_starts_at_that_grid_instant():
+    assert look_ahead_times(NOON_S - 1e-6, 60.0, 180.0) == [NOON_S, NOON_S + 60.0,
+                                                            NOON_S + 120.0]
+
+
+def test_a_window_shorter_than_a_period_has_no_instant_ahead():
+    assert look_ahead_times(NOON_S, 60.0, 60.0 - 1e-6) == []
+    assert look_ahead_times(NOON_S, 60.0, 60.0) == [NOON_S + 60.0]
+
+
+def test_the_target_rule_judges_the_sun_now_then_the_ephemeris_on_the_grid(small_facade_text,
+                                                                           table):
+    schedule = target_schedule(small_facade_text, table, 180)
+    now_s = NOON_S + 30.0
+    window = schedule.sun_window(now_s, sun(180.0, 40.0))
+    assert window.shape == (4, 3)
+    np.testing.assert_array_equal(window[0], sun(180.0, 40.0))
+    ahead = sun_vector_enu(np.array([NOON_S + 60.0, NOON_S + 120.0, NOON_S + 180.0]),
+                           schedule.facade.site)
+    np.testing.assert_allclose(window[1:], ahead, atol=1e-12)
+
+
+def test_the_target_rule_with_a_window_shorter_than_a_period_judges_the_sun_now_alone(
+        small_facade_text, table):
+    schedule = target_schedule(small_facade_text, table, 59)
+    window = schedule.sun_window(NOON_S, sun(180.0, 40.0))
+    np.testing.assert_array_equal(window, [sun(180.0, 40.0)])
+
+
+def test_the_predictive_controller_gets_the_sun_now_as_given(schedule):
+    now = sun(180.0, 40.0)
+    assert schedule.sun_window(NOON_S, now) is now
+
+
+def test_each_step_is_noted_as_a_decision_on_the_storm_latch(facade, table):
+    schedule = FacadeSchedule(facade, table=table, wind_timeout_s=2000.0)
+    parameters = schedule.parameters
+    schedule.scheduler.observe_wind(25.0, 60.0)
+    schedule.scheduler.advance_storm(60.0 + parameters.storm_on_delay_s)
+    assert schedule.storm.report() is not None
+    schedule.step(120.0, None)
+    schedule.scheduler.observe_wind(0.0, 130.0)
+    release_s = 130.0 + parameters.storm_off_delay_s
+    schedule.scheduler.advance_storm(release_s)
+    assert not schedule.storm.latched and schedule.storm.decision_due  # released, not decided
+    schedule.step(release_s, None)
+    assert not schedule.storm.decision_due

@@ -397,3 +397,21 @@ def test_an_override_takes_each_end_of_the_closure_range_and_refuses_one_step_be
 def test_zone_needs_zones():
     with pytest.raises(ValueError, match='zone=1 given but the scheduler has no zones'):
         make(2).set_override(0.5, DAY_S, zone=1)
+
+
+def test_the_last_step_is_the_start_until_a_step_and_then_that_step():
+    scheduler = make(1, **FREE)
+    assert scheduler.last_step_s == DAY_S
+    scheduler.step(DAY_S + 7.0, 0.0)
+    assert scheduler.last_step_s == DAY_S + 7.0
+
+
+def test_a_step_may_be_at_the_latest_storm_evaluation_and_not_just_before_it():
+    scheduler = make(1, **FREE)
+    scheduler.step(DAY_S + 1.0, 0.0)
+    scheduler.observe_wind(3.0, DAY_S + 5.0)
+    assert scheduler.earliest_step_s == DAY_S + 5.0
+    with pytest.raises(ValueError, match='now_s must not go backwards'):
+        scheduler.step(DAY_S + 5.0 - 1e-6, 0.0)
+    scheduler.step(DAY_S + 5.0, 0.0)
+    assert scheduler.earliest_step_s == scheduler.last_step_s == DAY_S + 5.0
