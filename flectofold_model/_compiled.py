@@ -22,6 +22,7 @@ import hashlib
 import os
 from pathlib import Path
 import shutil
+from typing import Iterator, Optional
 
 import numba
 
@@ -29,7 +30,7 @@ _PACKAGE = Path(__file__).resolve().parent
 _PREFIX = 'numba-'
 
 
-def _digest():
+def _digest() -> str:
     """Digest of numba's version and every source file of the package."""
     digest = hashlib.sha256(numba.__version__.encode())
     for path in sorted(_PACKAGE.rglob('*.py')):
@@ -38,7 +39,7 @@ def _digest():
     return digest.hexdigest()[:16]
 
 
-def _cache_directory():
+def _cache_directory() -> Optional[str]:
     """Return a writable directory for this version's kernels; remove older versions'."""
     base = os.environ.get('NUMBA_CACHE_DIR')
     candidates = [Path(base)] if base else [
@@ -60,11 +61,12 @@ def _cache_directory():
 _directory = _cache_directory()
 if _directory is not None:
     # read by numba when a cached function is decorated, which happens after this line
-    numba.config.CACHE_DIR = _directory
+    # numba.config sets its names from the environment at run time: the checker sees none
+    numba.config.CACHE_DIR = _directory  # type: ignore[attr-defined]
 
 
 @contextlib.contextmanager
-def compile_lock():
+def compile_lock() -> Iterator[None]:
     """Hold the cache's lock: processes that start together compile once, then load.
 
     The first holder compiles and writes the cache; the others wait and load it.

@@ -1,8 +1,8 @@
 """The typed public API type-checks: mypy over the files ``mypy.ini`` names.
 
-The model's kinematics, environment, facade and building packages, its YAML reader and input
-checks, and the wire layer's typed modules: every function annotated (``mypy.ini`` makes a
-missing annotation an error there) and every annotation consistent with the code.
+Every package of the model (``flectofold_model``) and the wire layer (``flectofold_ros/wire``):
+every function annotated (``mypy.ini`` makes a missing annotation an error there) and every
+annotation consistent with the code.
 """
 
 from pathlib import Path

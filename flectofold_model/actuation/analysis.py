@@ -7,11 +7,12 @@ from scipy.optimize import brentq
 from flectofold_model._validate import real_scalar
 from flectofold_model.actuation.circuit import PlantParameters
 from flectofold_model.actuation.flow import ATMOSPHERIC_PRESSURE_PA, mass_flow
-from flectofold_model.actuation.plant import PneumaticPlant
+from flectofold_model.actuation.plant import CushionMapFunction, PneumaticPlant
 
 
-def physical_fill_time_s(parameters, cushion_map, target_gauge_pa, start_gauge_pa=0.0,
-                         dt_s=1e-3, limit_s=600.0):
+def physical_fill_time_s(parameters: PlantParameters, cushion_map: CushionMapFunction,
+                         target_gauge_pa: float, start_gauge_pa: float = 0.0,
+                         dt_s: float = 1e-3, limit_s: float = 600.0) -> float:
     """Time for one cushion to fill from ``start_gauge_pa`` to ``target_gauge_pa`` [s].
 
     Simulates a single :class:`PneumaticPlant` with the fill valve fully open and the vent
@@ -79,7 +80,7 @@ def physical_fill_time_s(parameters, cushion_map, target_gauge_pa, start_gauge_p
         f'(the cushion got to {previous:.6g} Pa)')
 
 
-def holding_gauge_pa(parameters):
+def holding_gauge_pa(parameters: PlantParameters) -> float:
     """Gauge pressure at which the open fill valve balances the leak and the relief [Pa].
 
     The highest pressure a cushion reaches with the fill valve held open and the vent closed:
@@ -92,7 +93,7 @@ def holding_gauge_pa(parameters):
     supply = parameters.supply_pressure_pa
     span = parameters.relief_full_open_pa - parameters.relief_cracking_pa
 
-    def net_mass_flow(pressure_pa):
+    def net_mass_flow(pressure_pa: float) -> float:
         opening = min(max((pressure_pa - ATMOSPHERIC_PRESSURE_PA
                            - parameters.relief_cracking_pa) / span, 0.0), 1.0)
         exhaust = (parameters.leak_conductance_m3_s_pa

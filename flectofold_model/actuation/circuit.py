@@ -58,18 +58,18 @@ class PlantParameters:
     """Constant offset of the cushion pressure sensor [Pa]."""
     max_step_s: float = 1e-3
     """Longest internal integration sub-step [s]; a fine margin below the stability limit of
-    RK4 for the default valves and relief on a 2 L cushion. With ``adaptive_step`` (see
-    :class:`PneumaticPlant`), the sub-step with a valve wide open and the shortest taken."""
+    RK4 for the default valves and relief on a 2 L cushion. With ``integrator='adaptive'``
+    (see :class:`PneumaticPlant`), the sub-step with a valve wide open and the shortest taken."""
     max_quiet_step_s: float = 0.25
-    """Longest sub-step of a :class:`PneumaticPlant` with ``adaptive_step`` [s], taken while
-    only the leak (or a barely open valve) moves air; at least ``max_step_s``."""
+    """Longest sub-step of a :class:`PneumaticPlant` with ``integrator='adaptive'`` [s], taken
+    while only the leak (or a barely open valve) moves air; at least ``max_step_s``."""
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         real_fields(self)
         self._check_pressures()
         self._check_non_negative()
 
-    def _check_pressures(self):
+    def _check_pressures(self) -> None:
         if self.supply_pressure_pa <= ATMOSPHERIC_PRESSURE_PA:
             raise ValueError(
                 f'supply_pressure_pa must be an absolute pressure above atmospheric '
@@ -86,7 +86,7 @@ class PlantParameters:
                 f'relief_full_open_pa must be above relief_cracking_pa '
                 f'({self.relief_cracking_pa:g} Pa), got {self.relief_full_open_pa:g} Pa')
 
-    def _check_non_negative(self):
+    def _check_non_negative(self) -> None:
         for name, unit in (('fill_conductance_m3_s_pa', ' m^3/(s*Pa)'),
                            ('vent_conductance_m3_s_pa', ' m^3/(s*Pa)'),
                            ('temperature_k', ' K'), ('max_step_s', ' s'),

@@ -17,7 +17,7 @@ import math
 
 import numpy as np
 
-from flectofold_model._validate import real_fields
+from flectofold_model._validate import FloatOrArray, real_fields
 
 
 @dataclass(frozen=True)
@@ -31,7 +31,7 @@ class StripCushion:
     mount_gap_m: float = 0.005
     """Gap between back part and mid-rib at the cushion in the open state [m]."""
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         real_fields(self)
         for name in ('flat_width_m', 'length_m'):
             if getattr(self, name) <= 0.0:
@@ -42,16 +42,16 @@ class StripCushion:
                 f'flat_width_m={self.flat_width_m:g} m), got {self.mount_gap_m:g} m')
 
     @property
-    def max_gap_m(self):
+    def max_gap_m(self) -> float:
         """Gap at which the tube is round and its stroke ends [m]."""
         return 2.0 * self.flat_width_m / math.pi
 
 
-def section_area_m2(flat_width_m, gap_m):
+def section_area_m2(flat_width_m: FloatOrArray, gap_m: FloatOrArray) -> FloatOrArray:
     """Cross-section area ``W0 h - pi h**2 / 4`` of the tube at gap ``h`` [m2]."""
     return flat_width_m * gap_m - math.pi * np.square(gap_m) / 4.0
 
 
-def contact_width_m(flat_width_m, gap_m):
+def contact_width_m(flat_width_m: FloatOrArray, gap_m: FloatOrArray) -> FloatOrArray:
     """Width ``W0 - pi h / 2`` over which the pressure pushes on each plate [m]."""
     return flat_width_m - math.pi * gap_m / 2.0

@@ -8,9 +8,20 @@ distinct panel. The tables do not depend on the panel kind: the plant, the loops
 compiled kernels see only them.
 """
 
-import numpy as np
+from typing import cast, Hashable, Iterable, Optional, Self, Sequence, TypeVar
 
+import numpy as np
+import numpy.typing as npt
+
+from flectofold_model._validate import FloatArray, IntArray
 from flectofold_model.actuation.static_model import StaticActuationModel
+
+_PanelT = TypeVar('_PanelT', bound=Hashable)
+#: Pressure [Pa gauge], volume [m3], compliance [m3/Pa] and apex fold angle [rad] (R, S).
+Tables = tuple[FloatArray, FloatArray, FloatArray, FloatArray]
+#: :meth:`CushionMap.compiled_tables`: the four tables (R, S), the rows (N,) and the closures (S,).
+CompiledTables = tuple[FloatArray, FloatArray, FloatArray, FloatArray, npt.NDArray[np.int64],
+                       FloatArray]
 
 
 class CushionMap:
@@ -25,7 +36,7 @@ class CushionMap:
     closure the same way.
     """
 
-    def __init__(self, model, samples=129):
+    def __init__(self, model: StaticActuationModel, samples: int = 129) -> None:
         if not isinstance(model, StaticActuationModel):
             raise TypeError(f'CushionMap needs an ActuationModel or a HexagonActuationModel, '
                             f'got {type(model).__name__}')
@@ -38,7 +49,7 @@ class CushionMap:
         self._set_tables(_tables(source, closures), row, closures)
 
     @classmethod
-    def from_tables(cls, tables, row):
+    def from_tables(cls, tables: Sequence[npt.ArrayLike], row: npt.ArrayLike) -> Self:
         """Build a map from tables computed elsewhere (the structural model's, say).
 
         ``tables``: gauge pressure [Pa], cushion volume [m3], compliance dV/dp [m3/Pa] and
@@ -62,10 +73,11 @@ class CushionMap:
         if row.ndim != 1 or row.size == 0 or row.min() < 0 or row.max() >= pressure.shape[0]:
             raise ValueError(f'row must index the {pressure.shape[0]} rows of the tables')
         result = cls.__new__(cls)
-        result._set_tables(tuple(arrays), row, np.linspace(0.0, 1.0, pressure.shape[1]))
+        result._set_tables(cast(Tables, tuple(arrays)), row,  # four, checked above
+                           np.linspace(0.0, 1.0, pressure.shape[1]))
         return result
 
-    def _set_tables(self, distinct, row, closures):
+    def _set_tables(self, distinct: Tables, row: IntArray, closures: FloatArray) -> None:
         self.row = row
         self.closures = closures
         self._distinct = distinct
@@ -78,14 +90,14 @@ class CushionMap:
         """Cushion compliance dV/dp [m3/Pa] there (N, S)."""
         self.fold_angle_rad = fold_angle
         """Flap fold angle at the crease apex [rad] there (N, S)."""
-        self._compiled = None
+        self._compiled: Optional[CompiledTables] = None
 
     @property
-    def distinct_count(self):
+    def distinct_count(self) -> int:
         """Number of distinct panels (module geometry and build) the tables were computed for."""
         return self._distinct[0].shape[0]
 
-    def __call__(self, gauge_pressure_pa):
+    def __call__(self, gauge_pressure_pa: npt.ArrayLike) -> tuple[FloatArray, FloatArray]:
         pressure = np.asarray(gauge_pressure_pa, dtype=np.float64)
         lower, fraction = self._locate(pressure)
         volume = _between(self.volume_m3, lower, fraction)
@@ -96,7 +108,7 @@ class CushionMap:
                                   0.0, 1.0)
         return volume, compliance * off_open_stop * off_closed_stop
 
-    def tables(self):
+    def tables(self) -> tuple[FloatArray, FloatArray, FloatArray, IntArray]:
         """Return the distinct panels' tables and each panel's row in them.
 
         Pressure [Pa gauge], volume [m3] and compliance [m3/Pa], each (R, S), and the row
@@ -104,30 +116,31 @@ class CushionMap:
         """
         return (*self._distinct[:3], self.row)
 
-    def compiled_tables(self):
+    def compiled_tables(self) -> CompiledTables:
         """Return the tables as compiled kernels take them, built once: contiguous arrays.
 
         Pressure [Pa gauge], volume [m3], compliance [m3/Pa] and apex fold angle [rad] of the
         distinct panels (R, S), each panel's row (N,) and the closure samples (S,).
         """
         if self._compiled is None:
-            self._compiled = (*(np.ascontiguousarray(t, dtype=np.float64) for t in self._distinct),
-                              np.ascontiguousarray(self.row, dtype=np.int64),
-                              np.ascontiguousarray(self.closures, dtype=np.float64))
+            self._compiled = cast(CompiledTables, (
+                *(np.ascontiguousarray(t, dtype=np.float64) for t in self._distinct),
+                np.ascontiguousarray(self.row, dtype=np.int64),
+                np.ascontiguousarray(self.closures, dtype=np.float64)))
         return self._compiled
 
-    def pressure_for_closure(self, closure):
+    def pressure_for_closure(self, closure: npt.ArrayLike) -> FloatArray:
         """Gauge pressure (N,) [Pa] that holds closures (N,) in [0, 1], by interpolation."""
         position = np.asarray(closure, dtype=np.float64) / (self.closures[1] - self.closures[0])
         lower = np.minimum(position.astype(np.intp), self.closures.size - 2)
         return _between(self.pressure_pa, lower, position - lower)
 
-    def closure(self, gauge_pressure_pa):
+    def closure(self, gauge_pressure_pa: npt.ArrayLike) -> FloatArray:
         """Closure (N,) at gauge pressures (N,), by the same interpolation."""
         lower, fraction = self._locate(np.asarray(gauge_pressure_pa, dtype=np.float64))
         return self.closures[lower] + fraction * (self.closures[1] - self.closures[0])
 
-    def _locate(self, pressure):
+    def _locate(self, pressure: FloatArray) -> tuple[IntArray, FloatArray]:
         table = self.pressure_pa
         clipped = np.clip(pressure, table[:, 0], table[:, -1])
         lower = np.clip(np.sum(table < clipped[:, None], axis=1) - 1, 0, table.shape[1] - 2)
@@ -136,18 +149,18 @@ class CushionMap:
         return lower, (clipped - low) / (high - low)
 
 
-def distinct_panels(panels):
+def distinct_panels(panels: Iterable[_PanelT]) -> tuple[list[_PanelT], IntArray]:
     """Return the distinct panels, in first-seen order, and each panel's index among them (N,).
 
     Panels are compared by value (an :class:`~.statics.ActuatedPanel` is a frozen dataclass):
     the 36 modules of a facade of one module geometry are one panel, built once.
     """
-    index = {}
+    index: dict[_PanelT, int] = {}
     row = np.array([index.setdefault(panel, len(index)) for panel in panels], dtype=np.intp)
     return list(index), row
 
 
-def _tables(model, closures):
+def _tables(model: StaticActuationModel, closures: FloatArray) -> Tables:
     """Pressure, volume, compliance and apex fold angle (R, S) of ``model`` at ``closures``."""
     shape, fold_angle = model.shape_table(closures)
     step = model.derivative_step
@@ -164,6 +177,6 @@ def _tables(model, closures):
     return pressure, volume, volume_rate / pressure_rate, fold_angle
 
 
-def _between(table, lower, fraction):
+def _between(table: FloatArray, lower: IntArray, fraction: FloatArray) -> FloatArray:
     rows = np.arange(table.shape[0])
     return table[rows, lower] + fraction * (table[rows, lower + 1] - table[rows, lower])

@@ -17,8 +17,9 @@ Pressures are in Pa (absolute), conductances in m^3/(s*Pa), mass flows in kg/s.
 """
 
 import numpy as np
+import numpy.typing as npt
 
-from flectofold_model._validate import in_range, real_array
+from flectofold_model._validate import FloatArray, FloatOrArray, in_range, real_array
 
 #: Standard atmosphere: the vent, leak and relief exhaust against it [Pa].
 ATMOSPHERIC_PRESSURE_PA = 101325.0
@@ -33,7 +34,7 @@ ANR_TEMPERATURE_K = 293.15
 M3_S_PA_PER_DM3_S_BAR = 1e-8
 
 
-def conductance_from_catalogue(dm3_per_s_bar):
+def conductance_from_catalogue(dm3_per_s_bar: npt.ArrayLike) -> FloatArray:
     """Convert a catalogue sonic conductance from dm^3/(s*bar) to SI [m^3/(s*Pa)].
 
     Parameters
@@ -51,8 +52,9 @@ def conductance_from_catalogue(dm3_per_s_bar):
     return value * M3_S_PA_PER_DM3_S_BAR
 
 
-def iso6358_mass_flow(upstream_pa, downstream_pa, conductance_m3_s_pa, critical_ratio,
-                      temperature_k=ANR_TEMPERATURE_K):
+def iso6358_mass_flow(upstream_pa: npt.ArrayLike, downstream_pa: npt.ArrayLike,
+                      conductance_m3_s_pa: npt.ArrayLike, critical_ratio: npt.ArrayLike,
+                      temperature_k: npt.ArrayLike = ANR_TEMPERATURE_K) -> FloatArray:
     """Signed ISO 6358 mass flow through a valve [kg/s].
 
     The formula is applied with the higher of the two pressures upstream, so the flow is
@@ -88,12 +90,13 @@ def iso6358_mass_flow(upstream_pa, downstream_pa, conductance_m3_s_pa, critical_
     return mass_flow(upstream_pa, downstream_pa, conductance, critical_ratio, temperature_k)
 
 
-def _positive(name, value, unit):
+def _positive(name: str, value: npt.ArrayLike, unit: str) -> FloatArray:
     array = real_array(name, value)
     return in_range(name, array, 0.0, np.inf, unit, low_open=True, high_open=True)
 
 
-def mass_flow(from_pa, to_pa, conductance, critical_ratio, temperature_k):
+def mass_flow(from_pa: FloatOrArray, to_pa: FloatOrArray, conductance: FloatOrArray,
+              critical_ratio: FloatOrArray, temperature_k: FloatOrArray) -> FloatArray:
     """:func:`iso6358_mass_flow` without the input checks, for an integrator's inner loop."""
     high = np.maximum(from_pa, to_pa)
     ratio = np.minimum(from_pa, to_pa) / high

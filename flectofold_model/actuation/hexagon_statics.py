@@ -34,10 +34,12 @@ cushion's own stiffness are left out; the hinge fold is uniform across the hinge
 
 from dataclasses import dataclass
 import math
+from typing import Iterable
 
 import numpy as np
+import numpy.typing as npt
 
-from flectofold_model._validate import real_scalar
+from flectofold_model._validate import FloatArray, IntArray, real_scalar
 from flectofold_model.actuation.laminate import Laminate
 from flectofold_model.actuation.round_cushion import RoundCushion, wedge_volume_m3
 from flectofold_model.actuation.static_model import StaticActuationModel
@@ -57,7 +59,7 @@ HALF_SECTOR_RAD = math.pi / 3
 _BISECTIONS = 60
 
 
-def inner_radius_m(geometry):
+def inner_radius_m(geometry: HexagonPanel) -> float:
     """Radius of the largest disc about the centre inside the central part [m].
 
     The drawn fold lines' nearest approach to the centre, less half the hinge zone (which
@@ -68,7 +70,7 @@ def inner_radius_m(geometry):
     return float(np.min(drawn_radius_m(batch, phi))) - geometry.hinge_width_m / 2
 
 
-def d_cone_core_radius_m(thickness_m, circumradius_m):
+def d_cone_core_radius_m(thickness_m: float, circumradius_m: float) -> float:
     """Core radius ``t**(1/3) R**(2/3)`` of a developable cone of a sheet [m] (estimate).
 
     The scaling of the core of a d-cone (Cerda, Chaieb, Melo & Mahadevan, Nature 401, 1999);
@@ -91,7 +93,7 @@ class HexagonActuatedPanel:
     """Radius of the cone's core about the centre point, inside which bending is not counted
     [m]; see :func:`d_cone_core_radius_m`."""
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         for name, kind in (('geometry', HexagonPanel), ('midrib', Laminate), ('flap', Laminate),
                            ('hinge', Laminate), ('cushion', RoundCushion)):
             if not isinstance(getattr(self, name), kind):
@@ -120,8 +122,12 @@ class HexagonActuationModel(StaticActuationModel):
     shape_name = 'centre_rise_m'
     derivative_step = RISE_STEP_M
     stiffness_step = 1e-4
+    panels: list[HexagonActuatedPanel]
+    fold: HexagonFoldModel
+    batch: HexagonBatch  # the base's property: the fold model's batch, for the type checker
 
-    def __init__(self, panels, quadrature_points=24):
+    def __init__(self, panels: Iterable[HexagonActuatedPanel],
+                 quadrature_points: int = 24) -> None:
         panels = self._checked_panels(panels, HexagonActuatedPanel)
         if isinstance(quadrature_points, bool) or not isinstance(quadrature_points, int) \
                 or quadrature_points < 4:
@@ -137,7 +143,7 @@ class HexagonActuationModel(StaticActuationModel):
         self.actuation_energy_j = (self.elastic_energy_j(self.fold.closed_shape)
                                    - self.elastic_energy_j(self.fold.open_shape))
 
-    def _set_quadrature(self, panels, count):
+    def _set_quadrature(self, panels: list[HexagonActuatedPanel], count: int) -> None:
         """Gauss-Legendre nodes on one half-sector; six half-sectors make the panel."""
         nodes, weights = np.polynomial.legendre.leggauss(count)
         self._phi = (nodes + 1.0) * HALF_SECTOR_RAD / 2.0
@@ -162,10 +168,10 @@ class HexagonActuationModel(StaticActuationModel):
         self._open_fold = opened.fold_angle_rad(self._phi)
         self._open_sine = opened.directions(self._phi)[..., 2]
 
-    def _geometry(self, rise, index):
+    def _geometry(self, rise: FloatArray, index: IntArray) -> SectorGeometry:
         return SectorGeometry(self.batch.take(index), rise)
 
-    def _check_cushion_stroke(self):
+    def _check_cushion_stroke(self) -> None:
         centre_gap = self._cushion_gap + self.fold.closed_shape - self.fold.open_shape
         short = centre_gap >= self._cushion_max_gap
         if np.any(short):
@@ -175,26 +181,27 @@ class HexagonActuationModel(StaticActuationModel):
                 f'ends its stroke at a {self._cushion_max_gap[index] * 1e3:.1f} mm centre gap, '
                 f'but closing needs {centre_gap[index] * 1e3:.1f} mm; use a larger cushion')
 
-    def _energy_of(self, geometry, index):
+    def _energy_of(self, geometry: SectorGeometry, index: IntArray) -> FloatArray:
         curvature = geodesic_curvature(geometry, self._phi)
         fold = geometry.fold_angle_rad(self._phi)
         plates = self._plate_weights[index] * np.square(curvature - self._open_curvature[index])
         hinges = self._hinge_weights[index] * np.square(fold - self._open_fold[index])
         return np.sum(plates + hinges, axis=-1)
 
-    def _volume_of(self, geometry, rise, index):
+    def _volume_of(self, geometry: SectorGeometry, rise: FloatArray,
+                   index: IntArray) -> FloatArray:
         centre_gap = (self._cushion_gap[index] + rise - self.fold.open_shape[index])[:, None]
         steepening = self._open_sine[index] - geometry.directions(self._phi)[..., 2]
         wedge = wedge_volume_m3(self._cushion_radius[index, None], centre_gap, steepening)
         return np.sum(wedge * self._volume_weights, axis=-1)
 
-    def energy(self, rise, index):
+    def energy(self, rise: FloatArray, index: IntArray) -> FloatArray:
         return self._energy_of(self._geometry(rise, index), index)
 
-    def volume(self, rise, index):
+    def volume(self, rise: FloatArray, index: IntArray) -> FloatArray:
         return self._volume_of(self._geometry(rise, index), rise, index)
 
-    def pressure(self, rise, index):
+    def pressure(self, rise: FloatArray, index: IntArray) -> FloatArray:
         step = self.derivative_step
         above, below = self._geometry(rise + step, index), self._geometry(rise - step, index)
         energy = self._energy_of(above, index) - self._energy_of(below, index)
@@ -205,7 +212,7 @@ class HexagonActuationModel(StaticActuationModel):
     pressure_from_rise = StaticActuationModel.pressure_from_shape
     rise_from_pressure = StaticActuationModel.shape_from_pressure
 
-    def cushion_contact_area_m2(self, rise):
+    def cushion_contact_area_m2(self, rise: npt.ArrayLike) -> FloatArray:
         """Area over which the cushion touches the central part at centre rises [m2]."""
         rise = self._shape_array(rise)
         geometry = self._geometry(rise, self._all)
@@ -215,7 +222,7 @@ class HexagonActuationModel(StaticActuationModel):
                          / (1.0 - math.pi * steepening / 4.0), 0.0, None)
         return np.sum(radius ** 2 / 2.0 * self._volume_weights, axis=-1)
 
-    def shape_table(self, closures):
+    def shape_table(self, closures: npt.ArrayLike) -> tuple[FloatArray, FloatArray]:
         """Centre rises [m] and apex fold angles [rad] (N, S) at closure samples (S,).
 
         All ``N S`` states are found at once, by bisection of the apex fold angle (which grows
@@ -239,7 +246,7 @@ class HexagonActuationModel(StaticActuationModel):
         return rise, wanted
 
 
-def geodesic_curvature(geometry, phi):
+def geodesic_curvature(geometry: SectorGeometry, phi: FloatArray) -> FloatArray:
     """``det(g, g', g'')`` (N, P) of the cone's ruling directions at sector angles ``phi``.
 
     The cone's curvature across its rulings at flat distance ``r`` from the apex is this over
@@ -254,7 +261,7 @@ def geodesic_curvature(geometry, phi):
     return np.einsum('npi,npi->np', normal, second)
 
 
-def _crease_speed_m(geometry, phi):
+def _crease_speed_m(geometry: SectorGeometry, phi: FloatArray) -> FloatArray:
     """``dl / dphi`` (N, P) [m/rad] of the crease in the flat sheet, ``sqrt(r**2 + r'**2)``."""
     step = SECTOR_ANGLE_STEP_RAD
     radius = geometry.crease_radius_m(phi)
@@ -263,7 +270,7 @@ def _crease_speed_m(geometry, phi):
     return np.hypot(radius, rate)
 
 
-def hexagon_actuated_like(geometry, template=None):
+def hexagon_actuated_like(geometry: HexagonPanel, template: object = None) -> HexagonActuatedPanel:
     """Build a :class:`HexagonActuatedPanel` of ``geometry`` like ``template``.
 
     ``template`` defaults to :data:`HEXAGON_ACTUATED`; its laminates, cushion and core radius

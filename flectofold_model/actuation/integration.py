@@ -5,7 +5,7 @@ Within one call the valve openings are constant and each panel's cushion is a sc
 integrates it panel by panel with the embedded Dormand-Prince 5(4) pair [1] and the standard
 step-size controller [2]: each panel takes steps as long as its local error allows, a few per
 control period while a valve moves air and one per period while the valves are shut, instead of
-the reference's fixed 1 ms (:class:`~.plant.PneumaticPlant` with ``integrator='rk4'``). Each
+the reference's fixed 1 ms (:class:`~.plant.PneumaticPlant` with ``integrator='fixed'``). Each
 panel keeps its step length from one call to the next.
 
 Error bound: the local error estimate of every accepted step (the difference of the fifth- and
@@ -38,8 +38,12 @@ import math
 from typing import NamedTuple
 
 import numpy as np
+import numpy.typing as npt
 
 from flectofold_model._compiled import inline_kernel, kernel
+from flectofold_model._validate import FloatArray
+from flectofold_model.actuation.circuit import PlantParameters
+from flectofold_model.actuation.cushion_map import CushionMap
 from flectofold_model.actuation.flow import (AIR_GAS_CONSTANT, ANR_DENSITY_KG_M3,
                                              ANR_TEMPERATURE_K, ATMOSPHERIC_PRESSURE_PA)
 
@@ -76,11 +80,11 @@ class CushionTables(NamedTuple):
     them is given beside (``row``, (N,)).
     """
 
-    pressure_pa: np.ndarray
+    pressure_pa: FloatArray
     """Gauge pressure [Pa], rising along each row."""
-    volume_m3: np.ndarray
+    volume_m3: FloatArray
     """Cushion volume [m^3]."""
-    compliance_m3_per_pa: np.ndarray
+    compliance_m3_per_pa: FloatArray
     """Cushion compliance dV/dp [m^3/Pa], off the stops."""
 
 
@@ -104,8 +108,17 @@ class EngineCircuit(NamedTuple):
     """Conductance of the fully open relief valve [m^3/(s*Pa)]."""
 
 
+#: The rows of the cushion tables, int64 (N,), as the kernels take them.
+RowArray = npt.NDArray[np.int64]
+#: What :meth:`EmbeddedIntegrator.kernel_constants` returns: the :class:`CushionTables` and
+#: :class:`EngineCircuit` fields as plain tuples, the rows, the sensor lag [s] and the tolerance
+#: [Pa].
+EngineConstants = tuple[tuple[FloatArray, ...], RowArray, tuple[float, ...], float, float]
+
+
 @inline_kernel
-def named_engine(tables, circuit):
+def named_engine(tables: tuple[FloatArray, ...],
+                 circuit: tuple[float, ...]) -> tuple[CushionTables, EngineCircuit]:
     """Return :class:`CushionTables` and :class:`EngineCircuit` of plain (or named) tuples."""
     return CushionTables(*tables), EngineCircuit(*circuit)
 
@@ -128,7 +141,8 @@ class _Panel(NamedTuple):
 
 
 @inline_kernel
-def mass_flow(from_pa, to_pa, conductance, critical_ratio, temperature_scale):
+def mass_flow(from_pa: float, to_pa: float, conductance: float, critical_ratio: float,
+              temperature_scale: float) -> float:
     """Signed ISO 6358 mass flow [kg/s]; :func:`.flow.mass_flow` for scalars."""
     high, low = (from_pa, to_pa) if from_pa >= to_pa else (to_pa, from_pa)
     subsonic = min(max((low / high - critical_ratio) / (1.0 - critical_ratio), 0.0), 1.0)
@@ -141,7 +155,8 @@ def mass_flow(from_pa, to_pa, conductance, critical_ratio, temperature_scale):
 
 
 @inline_kernel
-def _cushion(pressure_table, volume_table, compliance_table, row, gauge_pa):
+def _cushion(pressure_table: FloatArray, volume_table: FloatArray, compliance_table: FloatArray,
+             row: int, gauge_pa: float) -> tuple[float, float]:
     """Volume and compliance of one panel's cushion: :meth:`.CushionMap.__call__` for a scalar."""
     volume, compliance = cushion_off_stops(pressure_table, volume_table, compliance_table, row,
                                            gauge_pa)
@@ -149,7 +164,9 @@ def _cushion(pressure_table, volume_table, compliance_table, row, gauge_pa):
 
 
 @inline_kernel
-def cushion_off_stops(pressure_table, volume_table, compliance_table, row, gauge_pa):
+def cushion_off_stops(pressure_table: FloatArray, volume_table: FloatArray,
+                      compliance_table: FloatArray, row: int,
+                      gauge_pa: float) -> tuple[float, float]:
     """Volume and compliance of one panel's cushion as the table has them, no stop ramped in."""
     table = pressure_table[row]
     last = table.shape[0] - 1
@@ -163,7 +180,7 @@ def cushion_off_stops(pressure_table, volume_table, compliance_table, row, gauge
 
 
 @inline_kernel
-def off_stops(table, gauge_pa):
+def off_stops(table: FloatArray, gauge_pa: float) -> float:
     """Share of the table's compliance a cushion has at ``gauge_pa``: 0 on a stop, 1 off it.
 
     Within the first and the last interval of the pressure ``table`` it ramps to zero at the
@@ -177,7 +194,7 @@ def off_stops(table, gauge_pa):
 
 
 @inline_kernel
-def _rates(pressure_pa, panel):
+def _rates(pressure_pa: float, panel: _Panel) -> tuple[float, float, float]:
     """``dp/dt`` [Pa/s], fill inflow and vent outflow [m^3/s free air] of one panel.
 
     ``panel`` is a :class:`_Panel`.
@@ -200,8 +217,11 @@ def _rates(pressure_pa, panel):
 
 
 @inline_kernel
-def advance_panel(i, dt_s, pressure, free_air_m3, vented_m3, lagged_pa, step_s, fill, vent,
-                  leak, supply, tables, row, circuit, sensor_lag_s, tolerance_pa):
+def advance_panel(i: int, dt_s: float, pressure: FloatArray, free_air_m3: FloatArray,
+                  vented_m3: FloatArray, lagged_pa: FloatArray, step_s: FloatArray,
+                  fill: FloatArray, vent: FloatArray, leak: FloatArray, supply: FloatArray,
+                  tables: CushionTables, row: RowArray, circuit: EngineCircuit,
+                  sensor_lag_s: float, tolerance_pa: float) -> tuple[int, int]:
     """Integrate panel ``i`` over ``dt_s``; return the steps accepted and rejected.
 
     ``tables`` and ``circuit`` are named (:func:`named_engine`).
@@ -250,8 +270,11 @@ def advance_panel(i, dt_s, pressure, free_air_m3, vented_m3, lagged_pa, step_s, 
 
 
 @kernel
-def _advance_all(dt_s, pressure, free_air_m3, vented_m3, lagged_pa, step_s, fill, vent, leak,
-                 supply, tables, row, circuit, sensor_lag_s, tolerance_pa):
+def _advance_all(dt_s: float, pressure: FloatArray, free_air_m3: FloatArray,
+                 vented_m3: FloatArray, lagged_pa: FloatArray, step_s: FloatArray,
+                 fill: FloatArray, vent: FloatArray, leak: FloatArray, supply: FloatArray,
+                 tables: tuple[FloatArray, ...], row: RowArray, circuit: tuple[float, ...],
+                 sensor_lag_s: float, tolerance_pa: float) -> tuple[int, int]:
     tables, circuit = named_engine(tables, circuit)
     accepted, rejected = 0, 0
     for i in range(pressure.shape[0]):
@@ -278,7 +301,8 @@ class EmbeddedIntegrator:
         Bound on each step's local error estimate [Pa], ``> 0``.
     """
 
-    def __init__(self, parameters, cushion_map, count, tolerance_pa=TOLERANCE_PA):
+    def __init__(self, parameters: PlantParameters, cushion_map: CushionMap, count: int,
+                 tolerance_pa: float = TOLERANCE_PA) -> None:
         *tables, row = cushion_map.tables()
         pressure, volume, compliance = (np.ascontiguousarray(t, dtype=np.float64) for t in tables)
         self._tables = tuple(CushionTables(pressure_pa=pressure, volume_m3=volume,
@@ -309,7 +333,7 @@ class EmbeddedIntegrator:
         self.rejected_steps = 0
         """Steps whose error was too large, retried shorter, since construction."""
 
-    def kernel_constants(self):
+    def kernel_constants(self) -> EngineConstants:
         """Return the tables, rows, circuit, sensor lag [s] and tolerance [Pa] of the kernels.
 
         The tables are the :class:`CushionTables` fields and the circuit the
@@ -317,8 +341,9 @@ class EmbeddedIntegrator:
         """
         return self._tables, self._row, self._circuit, self._sensor_lag_s, self.tolerance_pa
 
-    def advance(self, dt_s, state, fill_conductance, vent_conductance, leak_conductance,
-                supply_pa):
+    def advance(self, dt_s: float, state: tuple[FloatArray, FloatArray, FloatArray, FloatArray],
+                fill_conductance: npt.ArrayLike, vent_conductance: npt.ArrayLike,
+                leak_conductance: npt.ArrayLike, supply_pa: npt.ArrayLike) -> int:
         """Integrate every panel over ``dt_s`` [s] at these conductances (N,) and supplies.
 
         ``state`` is four float arrays (N,) updated in place: absolute pressure [Pa], free air
@@ -333,5 +358,5 @@ class EmbeddedIntegrator:
         return accepted
 
 
-def _contiguous(values):
+def _contiguous(values: npt.ArrayLike) -> FloatArray:
     return np.ascontiguousarray(values, dtype=np.float64)

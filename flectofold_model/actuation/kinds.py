@@ -7,19 +7,27 @@ actuated panels of one kind. Both models share the surface of
 plant and the loops work on either.
 """
 
+from typing import Iterable, Optional, Union
+
 from flectofold_model.actuation.hexagon_statics import (hexagon_actuated_like,
                                                         HexagonActuatedPanel,
                                                         HexagonActuationModel)
+from flectofold_model.actuation.static_model import StaticActuationModel
 from flectofold_model.actuation.statics import actuated_like as quad_actuated_like
 from flectofold_model.actuation.statics import ActuatedPanel, ActuationModel
 from flectofold_model.kinematics.hexagon_panel import HexagonPanel
+from flectofold_model.kinematics.kinds import Panel
 from flectofold_model.kinematics.panel import PanelGeometry
 
+#: An actuated panel of either kind.
+AnyActuatedPanel = Union[ActuatedPanel, HexagonActuatedPanel]
 #: Actuated panel class -> its static model class.
-MODELS = {ActuatedPanel: ActuationModel, HexagonActuatedPanel: HexagonActuationModel}
+MODELS: dict[type, type[StaticActuationModel]] = {
+    ActuatedPanel: ActuationModel, HexagonActuatedPanel: HexagonActuationModel}
 
 
-def actuated_like(geometry, template=None):
+def actuated_like(geometry: Panel,
+                  template: Optional[AnyActuatedPanel] = None) -> AnyActuatedPanel:
     """Build the actuated panel of ``geometry`` (quad or hexagonal) like ``template``.
 
     ``template`` defaults to the kind's preset (``DEMONSTRATOR_ACTUATED`` for a
@@ -38,7 +46,8 @@ def actuated_like(geometry, template=None):
                     f'(PanelGeometry, HexagonPanel)')
 
 
-def actuation_model_of(actuated_panels, quadrature_points=None):
+def actuation_model_of(actuated_panels: Iterable[AnyActuatedPanel],
+                       quadrature_points: Optional[int] = None) -> StaticActuationModel:
     """Build the static model of actuated panels of one kind (an iterable, at least one).
 
     Mixed kinds raise ``ValueError``; ``quadrature_points`` defaults to the model's own.

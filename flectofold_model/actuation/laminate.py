@@ -16,7 +16,7 @@ may see at every cycle (:mod:`.strain` compares the model's strains with it).
 
 from dataclasses import dataclass
 
-from flectofold_model._validate import real_fields
+from flectofold_model._validate import FloatOrArray, real_fields
 
 #: Effective in-plane modulus of woven glass/epoxy by vacuum infusion [Pa] (estimate).
 GFRP_YOUNGS_MODULUS_PA = 20e9
@@ -48,7 +48,7 @@ class Laminate:
     """Largest peak surface strain the zone may see in service (dimensionless), in
     ``(0, 0.05]``; the default is the fatigue estimate :data:`FATIGUE_ALLOWABLE_STRAIN`."""
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         real_fields(self)
         if self.thickness_m <= 0.0:
             raise ValueError(f'thickness_m must be positive, got {self.thickness_m:g} m')
@@ -63,11 +63,11 @@ class Laminate:
                              f'(a strain, not a percentage), got {self.allowable_strain:g}')
 
     @property
-    def plate_stiffness_nm(self):
+    def plate_stiffness_nm(self) -> float:
         """Bending stiffness per unit width ``D = E t**3 / (12 (1 - nu**2))`` [N m]."""
         return (self.youngs_modulus_pa * self.thickness_m**3
                 / (12.0 * (1.0 - self.poisson_ratio**2)))
 
-    def surface_strain(self, curvature_per_m):
+    def surface_strain(self, curvature_per_m: FloatOrArray) -> FloatOrArray:
         """Peak surface strain ``kappa t / 2`` at a curvature [1/m] (dimensionless)."""
         return curvature_per_m * self.thickness_m / 2.0

@@ -23,17 +23,34 @@ m^3/(s*Pa), mass flows in kg/s, times in s.
 
 import math
 from numbers import Integral
+from typing import Any, Callable, cast, Optional, TYPE_CHECKING, Union
 
 import numpy as np
+import numpy.typing as npt
 
-from flectofold_model._validate import in_range, real_array, real_scalar
+from flectofold_model._validate import (BoolArray, FloatArray, FloatOrArray, in_range,
+                                        real_array, real_scalar)
 from flectofold_model.actuation.circuit import PlantParameters
 from flectofold_model.actuation.cushion_map import CushionMap
 from flectofold_model.actuation.faults import CircuitFaults
 from flectofold_model.actuation.flow import (AIR_GAS_CONSTANT, ANR_DENSITY_KG_M3,
                                              ATMOSPHERIC_PRESSURE_PA, mass_flow)
-from flectofold_model.actuation.sensors import CushionSensors
-from flectofold_model.actuation.stepping import AdaptiveSubstep, FixedSubstep
+from flectofold_model.actuation.sensors import CushionSensors, SensorView
+from flectofold_model.actuation.stepping import AdaptiveSubstep, FixedSubstep, Rates
+
+if TYPE_CHECKING:  # numba takes a second to import: the engine's module loads when used
+    from flectofold_model.actuation.integration import EmbeddedIntegrator, RowArray
+    #: The constants of :meth:`PneumaticPlant.kernel_view`: full fill and vent conductances,
+    #: then :meth:`.EmbeddedIntegrator.kernel_constants`.
+    KernelConstants = tuple[float, float, tuple[FloatArray, ...], RowArray, tuple[float, ...],
+                            float, float]
+
+#: A cushion map: ``cushion_map(gauge_pressure_pa) -> (volume_m3, compliance_m3_per_pa)``.
+CushionMapFunction = Callable[[FloatArray], tuple[npt.ArrayLike, npt.ArrayLike]]
+#: The live arrays of :meth:`PneumaticPlant.kernel_view`: absolute pressure, free air in and
+#: vented, lagged pressure, each panel's step, leak conductance, fill valve jammed, supply.
+KernelArrays = tuple[FloatArray, FloatArray, FloatArray, FloatArray, FloatArray, FloatArray,
+                     BoolArray, FloatArray]
 
 
 class PneumaticPlant:
@@ -93,9 +110,13 @@ class PneumaticPlant:
     """
 
     INTEGRATORS = ('fixed', 'adaptive', 'embedded')
+    _stepper: Union[AdaptiveSubstep, FixedSubstep]
+    _engine: Optional['EmbeddedIntegrator']  # the compiled engine of integrator='embedded'
 
-    def __init__(self, parameters, cushion_map, count, seed=0, initial_gauge_pa=0.0,
-                 integrator='fixed', tolerance_pa=None):
+    def __init__(self, parameters: PlantParameters, cushion_map: CushionMapFunction,
+                 count: Union[int, np.integer[Any]], seed: Union[int, np.integer[Any]] = 0,
+                 initial_gauge_pa: npt.ArrayLike = 0.0, integrator: str = 'fixed',
+                 tolerance_pa: Optional[float] = None) -> None:
         if not isinstance(parameters, PlantParameters):
             raise TypeError(
                 f'parameters must be a PlantParameters, got {type(parameters).__name__}')
@@ -111,7 +132,8 @@ class PneumaticPlant:
         if integrator == 'embedded' and not isinstance(cushion_map, CushionMap):
             raise TypeError(f"integrator='embedded' needs a CushionMap, got "
                             f'{type(cushion_map).__name__}')
-        self._integrator = integrator
+        # the attributes' types written out: mypy checks this method late (the Integral checks)
+        self._integrator: str = integrator
         self._stepper = AdaptiveSubstep() if integrator == 'adaptive' else FixedSubstep()
         self._engine = None
         if integrator == 'embedded':  # imported here: numba takes a second to import
@@ -119,46 +141,47 @@ class PneumaticPlant:
             self._engine = EmbeddedIntegrator(
                 parameters, cushion_map, int(count),
                 TOLERANCE_PA if tolerance_pa is None else tolerance_pa)
-        self._substeps_taken = 0
-        self._parameters = parameters
-        self._cushion_map = cushion_map
-        self._count = int(count)
+        self._substeps_taken: int = 0
+        self._parameters: PlantParameters = parameters
+        self._cushion_map: CushionMapFunction = cushion_map
+        self._count: int = int(count)
         initial = self._per_panel('initial_gauge_pa', initial_gauge_pa)
         in_range('initial_gauge_pa', initial, 0.0, np.inf, ' Pa', high_open=True)
-        self._pressure_pa = initial + ATMOSPHERIC_PRESSURE_PA
-        self.sensors = CushionSensors(parameters, self._count, seed, self._pressure_pa)
+        self._pressure_pa: FloatArray = initial + ATMOSPHERIC_PRESSURE_PA
+        self.sensors: CushionSensors = CushionSensors(parameters, self._count, seed,
+                                                      self._pressure_pa)
         """The cushion and supply sensors, with their faults."""
-        self.faults = CircuitFaults(parameters, self._count)
+        self.faults: CircuitFaults = CircuitFaults(parameters, self._count)
         """The air path's injected faults: leaks, a jammed fill valve, a lost supply."""
-        self._free_air_m3 = np.zeros(self._count)
-        self._vented_air_m3 = np.zeros(self._count)
-        self._time_s = 0.0
+        self._free_air_m3: FloatArray = np.zeros(self._count)
+        self._vented_air_m3: FloatArray = np.zeros(self._count)
+        self._time_s: float = 0.0
         self.capacitance_m3(self._pressure_pa)
 
     # -- state ------------------------------------------------------------------------------
 
     @property
-    def parameters(self):
+    def parameters(self) -> PlantParameters:
         """The :class:`~.circuit.PlantParameters` of the circuit."""
         return self._parameters
 
     @property
-    def count(self):
+    def count(self) -> int:
         """Number of panels ``N``."""
         return self._count
 
     @property
-    def time_s(self):
+    def time_s(self) -> float:
         """Simulated time since construction [s]."""
         return self._time_s
 
     @property
-    def integrator(self):
+    def integrator(self) -> str:
         """``'fixed'``, ``'adaptive'`` or ``'embedded'``: how the plant is integrated."""
         return self._integrator
 
     @property
-    def substeps_taken(self):
+    def substeps_taken(self) -> int:
         """Number of sub-steps integrated since construction: the plant's cost.
 
         RK4 sub-steps, or accepted Dormand-Prince steps for ``integrator='embedded'``.
@@ -166,28 +189,28 @@ class PneumaticPlant:
         return self._substeps_taken
 
     @property
-    def absolute_pressure_pa(self):
+    def absolute_pressure_pa(self) -> FloatArray:
         """True absolute cushion pressure, ``(N,)`` [Pa]."""
         return self._pressure_pa.copy()
 
     @property
-    def gauge_pressure_pa(self):
+    def gauge_pressure_pa(self) -> FloatArray:
         """True cushion gauge pressure, ``(N,)`` [Pa]."""
         return self._pressure_pa - ATMOSPHERIC_PRESSURE_PA
 
     @property
-    def volume_m3(self):
+    def volume_m3(self) -> FloatArray:
         """Cushion volume from the cushion map, without the dead volume, ``(N,)`` [m^3]."""
         volume, _compliance = self.cushion(self._pressure_pa)
         return volume.copy()
 
     @property
-    def supply_pressure_pa(self):
+    def supply_pressure_pa(self) -> FloatArray:
         """Current absolute supply pressure per panel, atmospheric where it was lost [Pa]."""
         return self.faults.supply_pa.copy()
 
     @property
-    def free_air_used_m3(self):
+    def free_air_used_m3(self) -> FloatArray:
         """Air that came in through the fill valve, as volume at ANR conditions [m^3].
 
         Only inflow counts: air flowing back out through the fill valve (after a supply loss)
@@ -196,7 +219,7 @@ class PneumaticPlant:
         return self._free_air_m3.copy()
 
     @property
-    def vented_air_m3(self):
+    def vented_air_m3(self) -> FloatArray:
         """Air let out through the vent valve, as volume at ANR conditions [m^3].
 
         The leak and the relief valve are not included.
@@ -205,7 +228,8 @@ class PneumaticPlant:
 
     # -- dynamics ---------------------------------------------------------------------------
 
-    def step(self, dt_s, fill_opening, vent_opening):
+    def step(self, dt_s: float, fill_opening: npt.ArrayLike,
+             vent_opening: npt.ArrayLike) -> None:
         """Advance the plant by ``dt_s`` seconds with the valves held at the given openings.
 
         Parameters
@@ -237,7 +261,7 @@ class PneumaticPlant:
         self._substeps_taken += substeps
         self._time_s += dt_s
 
-    def kernel_view(self):
+    def kernel_view(self) -> tuple[KernelArrays, 'KernelConstants', SensorView]:
         """Return the compiled engine's live state and constants, for a caller that runs it.
 
         Returns ``(arrays, constants, sensors)``: the arrays the engine updates in place
@@ -257,21 +281,31 @@ class PneumaticPlant:
         return arrays, (parameters.fill_conductance_m3_s_pa, parameters.vent_conductance_m3_s_pa,
                         *engine.kernel_constants()), self.sensors.kernel_view()
 
-    def account(self, dt_s, accepted, rejected):
-        """Count ``dt_s`` [s] and the steps a caller of :meth:`kernel_view` ran."""
+    def account(self, dt_s: float, accepted: int, rejected: int) -> None:
+        """Count ``dt_s`` [s] and the steps a caller of :meth:`kernel_view` ran.
+
+        Refused, with nothing counted, as :meth:`kernel_view` is: ``ValueError`` unless the
+        plant's integrator is ``'embedded'``.
+        """
+        if self._engine is None:
+            raise ValueError("account needs integrator='embedded', not "
+                             f'{self._integrator!r}')
+        self._engine.rejected_steps += rejected
         self._time_s += dt_s
         self._substeps_taken += accepted
-        self._engine.rejected_steps += rejected
 
-    def _step_embedded(self, dt_s, fill_conductance, vent_conductance):
+    def _step_embedded(self, dt_s: float, fill_conductance: FloatArray,
+                       vent_conductance: FloatArray) -> None:
         state = (self._pressure_pa, self._free_air_m3, self._vented_air_m3,
                  self.sensors.lagged_pa)
-        self._substeps_taken += self._engine.advance(
+        # step() calls this only with the engine
+        self._substeps_taken += cast('EmbeddedIntegrator', self._engine).advance(
             dt_s, state, fill_conductance, vent_conductance, self.faults.leak_conductance,
             self.faults.supply_pa)
         self._time_s += dt_s
 
-    def _substep(self, h, fill_conductance, vent_conductance, k1=None):
+    def _substep(self, h: float, fill_conductance: FloatArray, vent_conductance: FloatArray,
+                 k1: Optional[Rates] = None) -> None:
         """One RK4 step of pressure and air counters, then the exact sensor-lag update.
 
         ``k1``, if given, is :meth:`rates` at the present pressure, already evaluated.
@@ -289,7 +323,8 @@ class PneumaticPlant:
         self.sensors.track(p0, p1, h)
         self._pressure_pa = p1
 
-    def rates(self, pressure_pa, fill_conductance, vent_conductance, capacitance=None):
+    def rates(self, pressure_pa: FloatArray, fill_conductance: FloatOrArray,
+              vent_conductance: FloatOrArray, capacitance: Optional[FloatArray] = None) -> Rates:
         """``dp/dt`` [Pa/s] and the fill inflow and vent outflow as free air [m^3/s].
 
         The right-hand side of the integration at absolute pressures ``pressure_pa`` (N,)
@@ -312,7 +347,7 @@ class PneumaticPlant:
         return (pressure_rate, np.maximum(fill, 0.0) / ANR_DENSITY_KG_M3,
                 per_conductance * vent_conductance / ANR_DENSITY_KG_M3)
 
-    def _relief_conductance(self, pressure_pa):
+    def _relief_conductance(self, pressure_pa: FloatArray) -> FloatArray:
         """Relief conductance ramping from 0 at cracking to full at full-open [m^3/(s*Pa)]."""
         parameters = self._parameters
         opening = np.clip(
@@ -320,7 +355,8 @@ class PneumaticPlant:
             / (parameters.relief_full_open_pa - parameters.relief_cracking_pa), 0.0, 1.0)
         return opening * parameters.relief_conductance_m3_s_pa
 
-    def capacitance_m3(self, pressure_pa, cushion=None):
+    def capacitance_m3(self, pressure_pa: FloatArray,
+                       cushion: Optional[tuple[FloatArray, FloatArray]] = None) -> FloatArray:
         """Isothermal capacitance ``V + p dV/dp`` of cushion plus dead volume [m^3].
 
         ``cushion``, if given, is :meth:`cushion` at ``pressure_pa``, already evaluated.
@@ -333,7 +369,7 @@ class PneumaticPlant:
                 'positive volume or compliance')
         return capacitance
 
-    def cushion(self, pressure_pa):
+    def cushion(self, pressure_pa: FloatArray) -> tuple[FloatArray, FloatArray]:
         """Evaluate the cushion map at absolute pressures: checked (N,) volume and compliance."""
         volume, compliance = self._cushion_map(pressure_pa - ATMOSPHERIC_PRESSURE_PA)
         volume = np.asarray(volume, dtype=np.float64)
@@ -348,49 +384,49 @@ class PneumaticPlant:
 
     # -- sensors ----------------------------------------------------------------------------
 
-    def read_sensor(self):
+    def read_sensor(self) -> FloatArray:
         """Measured absolute cushion pressure, ``(N,)`` [Pa]; see :meth:`.CushionSensors.read`."""
         return self.sensors.read()
 
-    def read_supply_sensor(self):
+    def read_supply_sensor(self) -> FloatArray:
         """Measured absolute supply pressure, ``(N,)`` [Pa]: no lag, the same noise level."""
         return self.sensors.read_supply(self.faults.supply_pa)
 
     # -- faults -----------------------------------------------------------------------------
 
-    def inject_sensor_stuck(self, panels):
+    def inject_sensor_stuck(self, panels: npt.ArrayLike) -> None:
         """Freeze the cushion sensor of ``panels`` on the value it returned last.
 
         Before the first read that is the noise-free initial reading.
         """
         self.sensors.inject_stuck(panels)
 
-    def inject_sensor_dropout(self, panels):
+    def inject_sensor_dropout(self, panels: npt.ArrayLike) -> None:
         """Make the cushion sensor of ``panels`` read NaN."""
         self.sensors.inject_dropout(panels)
 
-    def inject_sensor_noise(self, panels, noise_pa):
+    def inject_sensor_noise(self, panels: npt.ArrayLike, noise_pa: float) -> None:
         """Give the cushion sensor of ``panels`` noise of standard deviation ``noise_pa`` [Pa]."""
         self.sensors.inject_noise(panels, noise_pa)
 
-    def inject_leak(self, panels, conductance_m3_s_pa):
+    def inject_leak(self, panels: npt.ArrayLike, conductance_m3_s_pa: float) -> None:
         """Add a leak to atmosphere of ``conductance_m3_s_pa`` [m^3/(s*Pa)] to ``panels``."""
         self.faults.inject_leak(panels, conductance_m3_s_pa)
 
-    def inject_fill_valve_stuck_open(self, panels):
+    def inject_fill_valve_stuck_open(self, panels: npt.ArrayLike) -> None:
         """Jam the fill valve of ``panels`` wide open, whatever it is commanded."""
         self.faults.inject_fill_valve_stuck_open(panels)
 
-    def inject_supply_loss(self, panels):
+    def inject_supply_loss(self, panels: npt.ArrayLike) -> None:
         """Drop the supply of ``panels`` to atmospheric: an open fill valve then vents."""
         self.faults.inject_supply_loss(panels)
 
-    def clear_faults(self):
+    def clear_faults(self) -> None:
         """Remove every injected fault; the sensors read live values again."""
         self.sensors.clear_faults()
         self.faults.clear()
 
-    def _per_panel(self, name, value):
+    def _per_panel(self, name: str, value: npt.ArrayLike) -> FloatArray:
         array = real_array(name, value)
         if array.ndim == 0:
             return np.full(self._count, float(array))

@@ -24,7 +24,7 @@ import math
 
 import numpy as np
 
-from flectofold_model._validate import real_fields
+from flectofold_model._validate import FloatOrArray, real_fields
 
 
 @dataclass(frozen=True)
@@ -36,7 +36,7 @@ class RoundCushion:
     mount_gap_m: float = 0.005
     """Gap between back part and central part at the centre in the open state [m]."""
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         real_fields(self)
         if self.flat_radius_m <= 0.0:
             raise ValueError(f'flat_radius_m must be positive, got {self.flat_radius_m:g} m')
@@ -47,17 +47,18 @@ class RoundCushion:
                 f'{self.mount_gap_m:g} m')
 
     @property
-    def max_gap_m(self):
+    def max_gap_m(self) -> float:
         """Centre gap between parallel plates at which the contact disc vanishes [m]."""
         return 4.0 * self.flat_radius_m / math.pi
 
     @property
-    def flat_area_m2(self):
+    def flat_area_m2(self) -> float:
         """Area of the flat pouch [m2]."""
         return math.pi * self.flat_radius_m ** 2
 
 
-def contact_radius_m(flat_radius_m, centre_gap_m, steepening):
+def contact_radius_m(flat_radius_m: FloatOrArray, centre_gap_m: FloatOrArray,
+                     steepening: FloatOrArray) -> FloatOrArray:
     """Radius ``a`` out to which the pouch touches both plates [m], at least zero.
 
     ``centre_gap_m`` is ``h_c``, ``steepening`` the gap's fall per metre of radius ``s``.
@@ -67,7 +68,8 @@ def contact_radius_m(flat_radius_m, centre_gap_m, steepening):
     return np.clip(radius, 0.0, flat_radius_m)
 
 
-def wedge_volume_m3(flat_radius_m, centre_gap_m, steepening):
+def wedge_volume_m3(flat_radius_m: FloatOrArray, centre_gap_m: FloatOrArray,
+                    steepening: FloatOrArray) -> FloatOrArray:
     """Pouch volume per radian of azimuth [m3/rad] (see the module docstring)."""
     radius = contact_radius_m(flat_radius_m, centre_gap_m, steepening)
     rim = np.maximum(centre_gap_m - steepening * radius, 0.0)

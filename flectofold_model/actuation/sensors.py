@@ -8,10 +8,17 @@ the noise of the others.
 """
 
 import math
+from typing import Any, Union
 
 import numpy as np
+import numpy.typing as npt
 
-from flectofold_model._validate import panel_mask, real_scalar
+from flectofold_model._validate import BoolArray, FloatArray, panel_mask, real_scalar
+from flectofold_model.actuation.circuit import PlantParameters
+
+#: What :meth:`CushionSensors.kernel_view` returns: offset [Pa], cushion noise (N,) [Pa], stuck
+#: and dropped-out masks (N,), last readings (N,) [Pa], supply noise [Pa].
+SensorView = tuple[float, FloatArray, BoolArray, BoolArray, FloatArray, float]
 
 
 class CushionSensors:
@@ -20,17 +27,23 @@ class CushionSensors:
     ``initial_pa`` (N,) is the absolute cushion pressure the lag starts settled on.
     """
 
-    def __init__(self, parameters, count, seed, initial_pa):
+    # set by clear_faults
+    _stuck: BoolArray
+    _dropout: BoolArray
+    noise_pa: FloatArray
+
+    def __init__(self, parameters: PlantParameters, count: int,
+                 seed: Union[int, np.integer[Any]], initial_pa: FloatArray) -> None:
         self._parameters = parameters
         self._count = count
         self._rng = np.random.default_rng(int(seed))
         self.lagged_pa = initial_pa.copy()
         """The lagged true pressure, before offset and noise (N,) [Pa]."""
         self._last_reading_pa = self.lagged_pa + parameters.sensor_offset_pa
-        self._drawn = np.empty(0)
+        self._drawn: FloatArray = np.empty(0)
         self.clear_faults()
 
-    def track(self, p0, p1, h):
+    def track(self, p0: FloatArray, p1: FloatArray, h: float) -> None:
         """Advance the lag over ``h`` [s] for a pressure going linearly from ``p0`` to ``p1``.
 
         Exact for that pressure: ``s(h) = p1 + (s0 - p0) a - (p1 - p0) tau (1 - a) / h`` with
@@ -44,7 +57,7 @@ class CushionSensors:
         lagged = self.lagged_pa
         self.lagged_pa = p1 + (lagged - p0) * decay - (p1 - p0) * (tau * (1.0 - decay) / h)
 
-    def read(self):
+    def read(self) -> FloatArray:
         """Measured absolute cushion pressure, ``(N,)`` [Pa].
 
         The lagged true pressure plus ``sensor_offset_pa`` plus Gaussian noise of standard
@@ -59,12 +72,12 @@ class CushionSensors:
         self._last_reading_pa = np.where(self._stuck, self._last_reading_pa, reading)
         return reading
 
-    def read_supply(self, supply_pa):
+    def read_supply(self, supply_pa: FloatArray) -> FloatArray:
         """Measured absolute supply pressure of a true ``supply_pa`` (N,) [Pa]: no lag."""
         noise = self._normals(self._count) * self._parameters.sensor_noise_pa
         return supply_pa + noise
 
-    def draw_ahead(self, reads):
+    def draw_ahead(self, reads: int) -> FloatArray:
         """Return the standard normal draws of the next ``reads`` reads (reads, 2, N).
 
         Row ``[r, 0]`` is what the ``r``-th :meth:`read` from now would draw, ``[r, 1]`` the
@@ -74,11 +87,11 @@ class CushionSensors:
         """
         return self._normals(2 * reads * self._count).reshape(reads, 2, self._count)
 
-    def put_back(self, draws):
+    def put_back(self, draws: npt.ArrayLike) -> None:
         """Return draws taken with :meth:`draw_ahead` but not used: the next reads take them."""
         self._drawn = np.concatenate((np.ravel(draws), self._drawn))
 
-    def kernel_view(self):
+    def kernel_view(self) -> SensorView:
         """Offset, cushion noise (N,), stuck and dropped-out masks, last readings, supply noise.
 
         Pressures in Pa; the arrays (N,) live.
@@ -87,7 +100,7 @@ class CushionSensors:
         return (parameters.sensor_offset_pa, self.noise_pa, self._stuck, self._dropout,
                 self._last_reading_pa, parameters.sensor_noise_pa)
 
-    def _normals(self, count):
+    def _normals(self, count: int) -> FloatArray:
         """Return the next ``count`` standard normal draws, those drawn ahead first."""
         if not self._drawn.size:
             return self._rng.standard_normal(count)
@@ -97,22 +110,22 @@ class CushionSensors:
         taken, self._drawn = self._drawn[:count], self._drawn[count:]
         return taken
 
-    def inject_stuck(self, panels):
+    def inject_stuck(self, panels: npt.ArrayLike) -> None:
         """Freeze the cushion sensor of ``panels`` on the value it returned last."""
         self._stuck = self._stuck | panel_mask(panels, self._count)
 
-    def inject_dropout(self, panels):
+    def inject_dropout(self, panels: npt.ArrayLike) -> None:
         """Make the cushion sensor of ``panels`` read NaN."""
         self._dropout = self._dropout | panel_mask(panels, self._count)
 
-    def inject_noise(self, panels, noise_pa):
+    def inject_noise(self, panels: npt.ArrayLike, noise_pa: float) -> None:
         """Give the cushion sensor of ``panels`` noise of standard deviation ``noise_pa`` [Pa]."""
         noise_pa = real_scalar('noise_pa', noise_pa)
         if noise_pa < 0.0:
             raise ValueError(f'noise_pa must not be negative, got {noise_pa:g} Pa')
         self.noise_pa = np.where(panel_mask(panels, self._count), noise_pa, self.noise_pa)
 
-    def clear_faults(self):
+    def clear_faults(self) -> None:
         """Remove the sensor faults: the sensors read live values again, at their own noise."""
         self._stuck = np.zeros(self._count, dtype=bool)
         self._dropout = np.zeros(self._count, dtype=bool)

@@ -10,12 +10,20 @@ just the panels still unresolved), the reachable closure of a supply and the tab
 at closure samples that :class:`~.cushion_map.CushionMap` evaluates.
 """
 
+from typing import Any, Callable, Iterable, TYPE_CHECKING, TypeVar
 import warnings
 
 import numpy as np
+import numpy.typing as npt
 from scipy.optimize.elementwise import find_root
 
-from flectofold_model._validate import real_array, real_scalar
+from flectofold_model._validate import (FloatArray, FloatOrArray, IntArray, real_array,
+                                        real_scalar)
+from flectofold_model.kinematics.kinds import AnyFoldModel, Batch
+
+_PanelT = TypeVar('_PanelT')
+#: A map of a static model at shape parameters (M,) of panels ``index`` (M,): values (M,).
+_ShapeMap = Callable[[FloatArray, IntArray], FloatArray]
 
 
 class UnreachableClosureWarning(UserWarning):
@@ -33,9 +41,26 @@ class StaticActuationModel:
     """
 
     shape_name = 'shape'
+    # set by each subclass (see above)
+    panels: list[Any]
+    quadrature_points: int
+    fold: AnyFoldModel
+    _all: IntArray
+    derivative_step: float
+    stiffness_step: float
+    closed_pressure_pa: FloatArray
+
+    if TYPE_CHECKING:  # defined by each subclass: values (M,) at shapes (M,) of panels index (M,)
+        def __init__(self, panels: Iterable[Any], quadrature_points: int = ...) -> None: ...
+
+        def energy(self, shape: FloatArray, index: IntArray) -> FloatArray: ...
+
+        def volume(self, shape: FloatArray, index: IntArray) -> FloatArray: ...
+
+        def pressure(self, shape: FloatArray, index: IntArray) -> FloatArray: ...
 
     @staticmethod
-    def _checked_panels(panels, kind):
+    def _checked_panels(panels: Iterable[Any], kind: type[_PanelT]) -> list[_PanelT]:
         """Return the panels as a list; refuse none at all and any that is not a ``kind``."""
         panels = list(panels)
         if not panels:
@@ -47,29 +72,30 @@ class StaticActuationModel:
                                 f'not {article} {kind.__name__}')
         return panels
 
-    def __len__(self):
+    def __len__(self) -> int:
         return len(self.panels)
 
     @property
-    def batch(self):
+    def batch(self) -> Batch:
         return self.fold.batch
 
-    def _shape_array(self, shape):
+    def _shape_array(self, shape: npt.ArrayLike) -> FloatArray:
         return np.broadcast_to(real_array(self.shape_name, shape), (len(self),))
 
-    def elastic_energy_j(self, shape):
+    def elastic_energy_j(self, shape: npt.ArrayLike) -> FloatArray:
         """Elastic energy stored in each panel at shape parameters ``shape`` [J]."""
         return self.energy(self._shape_array(shape), self._all)
 
-    def cushion_volume_m3(self, shape):
+    def cushion_volume_m3(self, shape: npt.ArrayLike) -> FloatArray:
         """Cushion volume at shape parameters ``shape`` [m3]."""
         return self.volume(self._shape_array(shape), self._all)
 
-    def pressure_from_shape(self, shape):
+    def pressure_from_shape(self, shape: npt.ArrayLike) -> FloatArray:
         """Gauge pressure [Pa] that holds each panel at shape parameter ``shape``."""
         return self.pressure(self._shape_array(shape), self._all)
 
-    def stiffness_at_shape(self, shape, gauge_pressure_pa):
+    def stiffness_at_shape(self, shape: npt.ArrayLike,
+                           gauge_pressure_pa: FloatOrArray) -> FloatArray:
         """``U'' - p V''``, the stiffness of the one degree of freedom, the shape parameter.
 
         Second derivatives by central second differences of step ``stiffness_step``; in J per
@@ -78,17 +104,17 @@ class StaticActuationModel:
         shape = self._shape_array(shape)
         step = self.stiffness_step
 
-        def second(function):
+        def second(function: _ShapeMap) -> FloatArray:
             return (function(shape + step, self._all) - 2 * function(shape, self._all)
                     + function(shape - step, self._all)) / step ** 2
 
         return second(self.energy) - gauge_pressure_pa * second(self.volume)
 
-    def pressure_from_closure(self, closure):
+    def pressure_from_closure(self, closure: npt.ArrayLike) -> FloatArray:
         """Gauge pressure [Pa] that holds each panel at closure in [0, 1]."""
         return self.pressure_from_shape(self.fold.state_from_closure(closure).shape_parameter)
 
-    def shape_from_pressure(self, gauge_pressure_pa):
+    def shape_from_pressure(self, gauge_pressure_pa: npt.ArrayLike) -> FloatArray:
         """Shape parameter reached at a gauge pressure [Pa], held at the open and closed stops.
 
         Below zero gauge the panel rests open on its back part; above the closed pressure it
@@ -107,11 +133,11 @@ class StaticActuationModel:
         shape = np.where(pressure <= 0.0, opened, shape)
         return np.where(pressure >= self.closed_pressure_pa, closed, shape)
 
-    def closure_from_pressure(self, gauge_pressure_pa):
+    def closure_from_pressure(self, gauge_pressure_pa: npt.ArrayLike) -> FloatArray:
         """Closure in [0, 1] reached at a gauge pressure [Pa]."""
         return self.fold.state_from_shape(self.shape_from_pressure(gauge_pressure_pa)).closure
 
-    def reachable_closure(self, supply_gauge_pa):
+    def reachable_closure(self, supply_gauge_pa: float) -> FloatArray:
         """Closure reachable with a supply at ``supply_gauge_pa``; warns if short of closed."""
         supply = real_scalar('supply_gauge_pa', supply_gauge_pa)
         reachable = self.closure_from_pressure(supply)
@@ -124,7 +150,7 @@ class StaticActuationModel:
                 UnreachableClosureWarning, stacklevel=2)
         return reachable
 
-    def shape_table(self, closures):
+    def shape_table(self, closures: FloatArray) -> tuple[FloatArray, FloatArray]:
         """Shape parameters and apex fold angles [rad] (N, S) at closure samples (S,)."""
         states = [self.fold.state_from_closure(c) for c in closures]
         return (np.stack([state.shape_parameter for state in states], axis=1),

@@ -27,10 +27,12 @@ out; the hinge fold is uniform across the hinge width.
 
 from dataclasses import dataclass
 import math
+from typing import Iterable, Optional
 
 import numpy as np
+import numpy.typing as npt
 
-from flectofold_model._validate import real_scalar
+from flectofold_model._validate import FloatArray, FloatOrArray, IntArray, real_scalar
 from flectofold_model.actuation.cushion import contact_width_m, section_area_m2, StripCushion
 from flectofold_model.actuation.laminate import Laminate
 from flectofold_model.actuation.static_model import (StaticActuationModel,
@@ -59,7 +61,7 @@ class ActuatedPanel:
     hinge: Laminate
     cushion: StripCushion
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         for name, kind in (('geometry', PanelGeometry), ('midrib', Laminate), ('flap', Laminate),
                            ('hinge', Laminate), ('cushion', StripCushion)):
             if not isinstance(getattr(self, name), kind):
@@ -79,11 +81,11 @@ class WindResponse:
 
     wind_pressure_pa: float
     """Uniform pressure on each flap's inner face, pushing it open [Pa]."""
-    flap_force_n: np.ndarray
+    flap_force_n: FloatArray
     """Resultant of that pressure on one flap [N]."""
-    tip_deflection_m: np.ndarray
+    tip_deflection_m: FloatArray
     """Resulting travel of flap tip A at constant cushion pressure [m]."""
-    stiffness_n_per_m: np.ndarray
+    stiffness_n_per_m: FloatArray
     """``flap_force_n / tip_deflection_m`` [N/m]: larger is stiffer."""
 
 
@@ -99,8 +101,11 @@ class ActuationModel(StaticActuationModel):
     shape_name = 'elastica_k'
     derivative_step = DERIVATIVE_STEP
     stiffness_step = 1e-5
+    panels: list[ActuatedPanel]
+    fold: FoldModel
+    batch: PanelBatch  # the base's property: the fold model's batch, for the type checker
 
-    def __init__(self, panels, quadrature_points=32):
+    def __init__(self, panels: Iterable[ActuatedPanel], quadrature_points: int = 32) -> None:
         panels = self._checked_panels(panels, ActuatedPanel)
         self.panels = panels
         self.quadrature_points = quadrature_points
@@ -113,7 +118,7 @@ class ActuationModel(StaticActuationModel):
         self.actuation_energy_j = (self.elastic_energy_j(self.fold.closed_k)
                                    - self.elastic_energy_j(self.fold.open_k))
 
-    def _set_stiffnesses(self, panels):
+    def _set_stiffnesses(self, panels: list[ActuatedPanel]) -> None:
         self._midrib_stiffness = np.array([p.midrib.plate_stiffness_nm for p in panels])
         self._flap_stiffness = np.array([p.flap.plate_stiffness_nm for p in panels])
         self._hinge_stiffness = np.array([p.hinge.plate_stiffness_nm / p.geometry.hinge_width_m
@@ -122,7 +127,7 @@ class ActuationModel(StaticActuationModel):
         self._cushion_gap = np.array([p.cushion.mount_gap_m for p in panels])
         self._cushion_max_gap = np.array([p.cushion.max_gap_m for p in panels])
 
-    def _set_quadrature(self, panels, count):
+    def _set_quadrature(self, panels: list[ActuatedPanel], count: int) -> None:
         """Gauss-Legendre nodes on the half span; every integrand is symmetric about s = 0."""
         unit_nodes, unit_weights = np.polynomial.legendre.leggauss(count)
         half, weight = (unit_nodes + 1.0) / 4.0, unit_weights / 2.0
@@ -143,7 +148,8 @@ class ActuationModel(StaticActuationModel):
                                                                          self._all)
         self._open_height = self._cushion_height(self.fold.open_k, self._all)
 
-    def _curvature_and_fold(self, k, index):
+    def _curvature_and_fold(self, k: FloatArray,
+                            index: IntArray) -> tuple[FloatArray, FloatArray]:
         length = self.batch.length_m[index]
         shape = elastica.elastica_shape(k, length, self._nodes[index])
         curvature = elastica.peak_curvature_from_k(k, length)[..., None] * \
@@ -153,11 +159,11 @@ class ActuationModel(StaticActuationModel):
         fold = 2.0 * np.arccos(np.clip(np.cos(shape.slope_rad) * np.cos(half_angle), -1, 1))
         return curvature, fold
 
-    def _cushion_height(self, k, index):
+    def _cushion_height(self, k: FloatArray, index: IntArray) -> FloatArray:
         return elastica.elastica_shape(k, self.batch.length_m[index],
                                        self._cushion_nodes[index]).z_m
 
-    def _check_cushion_stroke(self):
+    def _check_cushion_stroke(self) -> None:
         rise = self._cushion_height(self.fold.closed_k, self._all) - self._open_height
         gap = self._cushion_gap + np.max(rise, axis=-1)
         short = gap >= self._cushion_max_gap
@@ -168,22 +174,22 @@ class ActuationModel(StaticActuationModel):
                 f'its stroke at a {self._cushion_max_gap[index] * 1e3:.1f} mm gap, but closing '
                 f'needs {gap[index] * 1e3:.1f} mm; use a wider cushion')
 
-    def energy(self, k, index):
+    def energy(self, k: FloatArray, index: IntArray) -> FloatArray:
         curvature, fold = self._curvature_and_fold(k, index)
         plates = self._plate_weights[index] * np.square(curvature - self._open_curvature[index])
         hinges = self._hinge_weights[index] * np.square(fold - self._open_fold[index])
         return np.sum(plates + hinges, axis=-1)
 
-    def _gap(self, k, index):
+    def _gap(self, k: FloatArray, index: IntArray) -> FloatArray:
         gap = (self._cushion_gap[index, None] + self._cushion_height(k, index)
                - self._open_height[index])
         return np.clip(gap, 0.0, self._cushion_max_gap[index, None])
 
-    def volume(self, k, index):
+    def volume(self, k: FloatArray, index: IntArray) -> FloatArray:
         area = section_area_m2(self._cushion_width[index, None], self._gap(k, index))
         return np.sum(area * self._cushion_weights[index], axis=-1)
 
-    def pressure(self, k, index):
+    def pressure(self, k: FloatArray, index: IntArray) -> FloatArray:
         step = DERIVATIVE_STEP
         energy = self.energy(k + step, index) - self.energy(k - step, index)
         volume = self.volume(k + step, index) - self.volume(k - step, index)
@@ -191,7 +197,7 @@ class ActuationModel(StaticActuationModel):
 
     _k_array = StaticActuationModel._shape_array
 
-    def cushion_force_n(self, k, gauge_pressure_pa):
+    def cushion_force_n(self, k: npt.ArrayLike, gauge_pressure_pa: FloatOrArray) -> FloatArray:
         """Force the cushion puts on the mid-rib at a state and gauge pressure [N]."""
         gap = self._gap(self._k_array(k), self._all)
         contact = np.maximum(contact_width_m(self._cushion_width[:, None], gap), 0.0)
@@ -202,7 +208,8 @@ class ActuationModel(StaticActuationModel):
     stiffness_at_k = StaticActuationModel.stiffness_at_shape
     k_from_pressure = StaticActuationModel.shape_from_pressure
 
-    def wind_response(self, wind_pressure_pa=1000.0, topology=MeshTopology(21, 5, 11)):
+    def wind_response(self, wind_pressure_pa: float = 1000.0,
+                      topology: MeshTopology = MeshTopology(21, 5, 11)) -> WindResponse:
         """Tip travel of the closed flaps under a uniform pressure on their inner faces.
 
         The pressure pushes both flaps open; its generalised force on ``k`` is the virtual work
@@ -236,13 +243,14 @@ class ActuationModel(StaticActuationModel):
                             stiffness_n_per_m=flap_force / deflection)
 
 
-def _flap_faces(topology):
+def _flap_faces(topology: MeshTopology) -> IntArray:
     faces = topology.faces
     midrib_end = topology.midrib.stop
     return faces[np.all(faces >= midrib_end, axis=1)]
 
 
-def actuated_like(geometry, template=None):
+def actuated_like(geometry: PanelGeometry,
+                  template: Optional[ActuatedPanel] = None) -> ActuatedPanel:
     """Build an :class:`ActuatedPanel` of ``geometry`` like ``template`` (laminates, cushion).
 
     ``template`` defaults to :data:`DEMONSTRATOR_ACTUATED`: a facade description gives each
@@ -253,7 +261,7 @@ def actuated_like(geometry, template=None):
                          hinge=template.hinge, cushion=template.cushion)
 
 
-def radius_study(radii_m=(0.5, 0.75, 1.0)):
+def radius_study(radii_m: Iterable[float] = (0.5, 0.75, 1.0)) -> 'ActuationModel':
     """Build the paper's fold-radius study on the 520 x 420 mm prototype outline.
 
     Only the fold radius changes; the mid-rib keeps a 20 mm tip, so it widens as the radius

@@ -5,7 +5,7 @@ valve openings are constant over a call) for the longest sub-step of the coming 
 
 :class:`FixedSubstep` gives ``max_step_s`` always: the reference integration.
 
-:class:`AdaptiveSubstep` (``PneumaticPlant(..., adaptive_step=True)``) scales the sub-step
+:class:`AdaptiveSubstep` (``PneumaticPlant(..., integrator='adaptive')``) scales the sub-step
 with the conductance that is active. Each call of :meth:`~.plant.PneumaticPlant.step` takes
 one sub-step for all panels,
 
@@ -32,7 +32,7 @@ its error on a full fill. Where the scaling is not exact, guards:
 
 * *compliance ramps*: the time stretch makes a barely open valve cross a ramp of the
   cushion map the way the fixed plant crosses it wide open, in one or two long sub-steps.
-  The demonstrator's :class:`~flectofold_model.actuation.statics.CushionMap` has a capacitance
+  The demonstrator's :class:`~flectofold_model.actuation.cushion_map.CushionMap` has a capacitance
   of 1.3 L at the open stop and over 100 L 10 Pa above it, so a single 0.1 s sub-step
   of a fill at 0.1 % opening overshoots there by about 2 Pa, where the fixed plant is
   exact to 1e-4 Pa. The sub-step is therefore shortened (not below
@@ -55,11 +55,48 @@ valves are shut or barely open.
 """
 
 import math
+from typing import Optional, Protocol
 
 import numpy as np
 
+from flectofold_model._validate import BoolArray, FloatArray, FloatOrArray
+from flectofold_model.actuation.circuit import PlantParameters
+from flectofold_model.actuation.faults import CircuitFaults
 from flectofold_model.actuation.flow import (AIR_GAS_CONSTANT, ANR_DENSITY_KG_M3,
                                              ANR_TEMPERATURE_K, ATMOSPHERIC_PRESSURE_PA)
+
+#: ``dp/dt`` [Pa/s], fill inflow and vent outflow as free air [m^3/s], each (N,).
+Rates = tuple[FloatArray, FloatArray, FloatArray]
+
+
+class SteppedPlant(Protocol):
+    """What a stepper reads of the plant it steps (:class:`~.plant.PneumaticPlant`)."""
+
+    @property
+    def parameters(self) -> PlantParameters:
+        """The circuit's parameters."""
+
+    @property
+    def count(self) -> int:
+        """Number of panels N."""
+
+    @property
+    def absolute_pressure_pa(self) -> FloatArray:
+        """Cushion pressure (N,) [Pa, absolute]."""
+
+    faults: CircuitFaults
+
+    def cushion(self, pressure_pa: FloatArray) -> tuple[FloatArray, FloatArray]:
+        """Volume [m^3] and compliance [m^3/Pa] (N,) at absolute pressures."""
+
+    def capacitance_m3(self, pressure_pa: FloatArray,
+                       cushion: Optional[tuple[FloatArray, FloatArray]] = None) -> FloatArray:
+        """Capacitance ``V + p dV/dp`` (N,) [m^3]."""
+
+    def rates(self, pressure_pa: FloatArray, fill_conductance: FloatOrArray,
+              vent_conductance: FloatOrArray, capacitance: Optional[FloatArray] = None) -> Rates:
+        """:data:`Rates` at absolute pressures."""
+
 
 #: Largest relative change of the chamber capacitance over one adaptive sub-step, predicted
 #: from the rate at its start; resolves the compliance ramps of a cushion map.
@@ -71,7 +108,8 @@ CAPACITANCE_TRIALS = 4
 class FixedSubstep:
     """Sub-steps of ``max_step_s``, whatever the valves do: the reference integration."""
 
-    def longest_s(self, plant, dt_s, fill_conductance, vent_conductance):
+    def longest_s(self, plant: SteppedPlant, dt_s: float, fill_conductance: FloatArray,
+                  vent_conductance: FloatArray) -> tuple[float, None]:
         """Return ``(max_step_s, None)``: no rates evaluated."""
         return plant.parameters.max_step_s, None
 
@@ -79,7 +117,8 @@ class FixedSubstep:
 class AdaptiveSubstep:
     """Sub-steps scaled with the active conductance; see the module notes."""
 
-    def longest_s(self, plant, dt_s, fill_conductance, vent_conductance):
+    def longest_s(self, plant: SteppedPlant, dt_s: float, fill_conductance: FloatArray,
+                  vent_conductance: FloatArray) -> tuple[float, Optional[Rates]]:
         """Longest sub-step for the coming ``dt_s`` [s], and the rates if they were needed.
 
         The conductance rule, clipped to ``[max_step_s, min(max_quiet_step_s, dt_s)]``, then
@@ -126,7 +165,8 @@ class AdaptiveSubstep:
         return step_s, rates
 
 
-def _relief_within_reach(plant, pressure, dt_s, fill_conductance, volume):
+def _relief_within_reach(plant: SteppedPlant, pressure: FloatArray, dt_s: float,
+                         fill_conductance: FloatArray, volume: FloatArray) -> BoolArray:
     """Panels whose relief valve may be open at some time of the coming ``dt_s``.
 
     Those at or above the cracking pressure less the largest rise their fill valve could

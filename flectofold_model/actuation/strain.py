@@ -26,12 +26,16 @@ out, as in the energy models), so they are estimates of the order of magnitude.
 
 from dataclasses import dataclass
 import math
+from typing import Any, cast, Iterable, Optional, Sequence, TypeVar, Union
 import warnings
 
 import numpy as np
+import numpy.typing as npt
 
+from flectofold_model._validate import FloatArray
 from flectofold_model.actuation.hexagon_statics import (geodesic_curvature, HALF_SECTOR_RAD,
                                                         HEXAGON_ACTUATED, HexagonActuatedPanel)
+from flectofold_model.actuation.kinds import AnyActuatedPanel
 from flectofold_model.actuation.laminate import FATIGUE_ALLOWABLE_STRAIN, Laminate
 from flectofold_model.actuation.statics import ActuatedPanel, DEMONSTRATOR_ACTUATED
 from flectofold_model.kinematics import elastica
@@ -39,6 +43,7 @@ from flectofold_model.kinematics.closure import FoldModel
 from flectofold_model.kinematics.hexagon_closure import HexagonFoldModel
 from flectofold_model.kinematics.hexagon_panel import HexagonBatch, HexagonPanel
 from flectofold_model.kinematics.hexagon_reflection import MID_SECTOR_RAD, SectorGeometry
+from flectofold_model.kinematics.kinds import Panel
 from flectofold_model.kinematics.panel import PanelBatch
 from flectofold_model.kinematics.reflection import fold_angle_along_crease
 
@@ -63,36 +68,36 @@ class PanelStrain:
     Strains are counted from the stress-free open state (the pre-fold is moulded in).
     """
 
-    closure: np.ndarray
+    closure: FloatArray
     """Closure at which the strains hold, 0 open ... 1 closed."""
-    hinge_strain: np.ndarray
+    hinge_strain: FloatArray
     """Peak of ``(rho - rho_open) t_h / (2 b)`` along the crease."""
-    midrib_strain: np.ndarray
+    midrib_strain: FloatArray
     """Peak of ``|kappa - kappa_open| t_m / 2`` over the mid-rib (hexagon: the central part)."""
-    flap_strain: np.ndarray
+    flap_strain: FloatArray
     """Peak of ``|kappa - kappa_open| t_f / 2`` over the flaps."""
-    hinge_peak_arc_m: np.ndarray
+    hinge_peak_arc_m: FloatArray
     """Where the hinge peak sits: distance from the crease apex along the drawn fold line in
     the flat sheet [m] (quad: ``R asin(|s| / R)`` of the mid-rib station ``s``; hexagon: the
     open crease's length from its apex ``M`` toward a triangle vertex)."""
-    hinge_fold_change_rad: np.ndarray
+    hinge_fold_change_rad: FloatArray
     """Peak fold-angle change ``rho - rho_open`` along the crease [rad]."""
-    hinge_allowable_strain: np.ndarray
+    hinge_allowable_strain: FloatArray
     """Allowable strain of each panel's hinge laminate."""
-    midrib_allowable_strain: np.ndarray
+    midrib_allowable_strain: FloatArray
     """Allowable strain of each panel's mid-rib laminate."""
-    flap_allowable_strain: np.ndarray
+    flap_allowable_strain: FloatArray
     """Allowable strain of each panel's flap laminate."""
 
     @property
-    def utilisation(self):
+    def utilisation(self) -> FloatArray:
         """Largest strain / allowable strain over the three zones (N,); above 1 exceeds."""
         return np.maximum.reduce([self.hinge_strain / self.hinge_allowable_strain,
                                   self.midrib_strain / self.midrib_allowable_strain,
                                   self.flap_strain / self.flap_allowable_strain])
 
 
-def _laminate_arrays(panels):
+def _laminate_arrays(panels: Sequence['_Built']) -> dict[str, FloatArray]:
     return {f'{zone}_{name}': np.array([getattr(getattr(p, zone), attribute) for p in panels])
             for zone in ('hinge', 'midrib', 'flap')
             for name, attribute in (('thickness_m', 'thickness_m'),
@@ -114,21 +119,27 @@ class _Build:
     core_radius_m: float = math.nan
 
 
-def _checked(panels, kind):
+#: What the strains are computed of: actuated panels of either kind, or their builds.
+_Built = Union[ActuatedPanel, HexagonActuatedPanel, _Build]
+_PanelT = TypeVar('_PanelT')
+
+
+def _checked(panels: Iterable[Any], kind: type[_PanelT]) -> list[_PanelT]:
     panels = list(panels)
     if not panels:
         raise ValueError('strains need at least one panel')
     for index, panel in enumerate(panels):
         if not isinstance(panel, kind):
-            raise TypeError(f'panel {index} is a {type(panel).__name__}, not a {kind.__name__}')
+            raise TypeError(f'panel {index} is {type(panel).__name__}, not {kind.__name__}')
     return panels
 
 
-def _is_hexagon(panels):
+def _is_hexagon(panels: Sequence[_Built]) -> bool:
     return isinstance(panels[0].geometry, HexagonPanel)
 
 
-def quad_panel_strain(panels, closure=1.0, stations=STATIONS):
+def quad_panel_strain(panels: Iterable[ActuatedPanel], closure: npt.ArrayLike = 1.0,
+                      stations: int = STATIONS) -> PanelStrain:
     """Compute the peak surface strains of quad panels at closures (the reflection model).
 
     Parameters
@@ -154,14 +165,15 @@ def quad_panel_strain(panels, closure=1.0, stations=STATIONS):
     return _quad_strain(_checked(panels, ActuatedPanel), closure, stations)
 
 
-def _quad_strain(panels, closure, stations):
+def _quad_strain(panels: Sequence[Union[ActuatedPanel, _Build]], closure: npt.ArrayLike,
+                 stations: int) -> PanelStrain:
     fold = FoldModel(PanelBatch.from_panels(p.geometry for p in panels))
     batch = fold.batch
     state = fold.state_from_closure(closure)
     length = batch.length_m
     arc = length[:, None] * np.linspace(0.0, 0.5, stations)
 
-    def bent(k):
+    def bent(k: FloatArray) -> tuple[FloatArray, FloatArray]:
         shape = elastica.elastica_shape(k, length, arc)
         curvature = elastica.peak_curvature_from_k(k, length)[:, None] * shape.normalized_height
         fold_angle = fold_angle_along_crease(batch, k, elastica.sag_from_k(k, length), arc)
@@ -180,7 +192,8 @@ def _quad_strain(panels, closure, stations):
                    curvature_change, peak_arc)
 
 
-def hexagon_panel_strain(panels, closure=1.0, stations=STATIONS):
+def hexagon_panel_strain(panels: Iterable[HexagonActuatedPanel], closure: npt.ArrayLike = 1.0,
+                         stations: int = STATIONS) -> PanelStrain:
     """Compute the peak surface strains of hexagonal panels at closures (reflection model).
 
     Parameters
@@ -208,7 +221,8 @@ def hexagon_panel_strain(panels, closure=1.0, stations=STATIONS):
     return _hexagon_strain(_checked(panels, HexagonActuatedPanel), closure, stations)
 
 
-def _hexagon_strain(panels, closure, stations):
+def _hexagon_strain(panels: Sequence[Union[HexagonActuatedPanel, _Build]],
+                    closure: npt.ArrayLike, stations: int) -> PanelStrain:
     fold = HexagonFoldModel(HexagonBatch.from_panels(p.geometry for p in panels))
     batch = fold.batch
     state = fold.state_from_closure(closure)
@@ -227,7 +241,7 @@ def _hexagon_strain(panels, closure, stations):
                    crease_arc[rows, peak])
 
 
-def _hexagon_crease_arc_m(geometry, phi):
+def _hexagon_crease_arc_m(geometry: SectorGeometry, phi: FloatArray) -> FloatArray:
     """Length (N, P) of the open crease in the flat sheet from its apex to sector angles ``phi``.
 
     ``phi`` runs from a triangle vertex (0) to the apex (``MID_SECTOR_RAD``); the length is
@@ -244,8 +258,9 @@ def _hexagon_crease_arc_m(geometry, phi):
     return np.abs(apex[:, None] - from_vertex)
 
 
-def _result(panels, closure, fold_change, hinge_width_m, midrib_curvature, flap_curvature,
-            peak_arc_m):
+def _result(panels: Sequence[_Built], closure: npt.ArrayLike, fold_change: FloatArray,
+            hinge_width_m: FloatArray, midrib_curvature: FloatArray,
+            flap_curvature: FloatArray, peak_arc_m: FloatArray) -> PanelStrain:
     laminates = _laminate_arrays(panels)
     return PanelStrain(
         closure=np.asarray(closure, dtype=np.float64),
@@ -259,7 +274,7 @@ def _result(panels, closure, fold_change, hinge_width_m, midrib_curvature, flap_
         flap_allowable_strain=laminates['flap_allowable'])
 
 
-def panel_strain(panels, closure=1.0):
+def panel_strain(panels: Iterable[AnyActuatedPanel], closure: npt.ArrayLike = 1.0) -> PanelStrain:
     """Compute the peak surface strains of actuated panels of one kind (quad or hexagonal).
 
     Dispatches to :func:`quad_panel_strain` or :func:`hexagon_panel_strain` by the first
@@ -267,17 +282,17 @@ def panel_strain(panels, closure=1.0):
     """
     panels = list(panels)
     if panels and isinstance(panels[0], HexagonActuatedPanel):
-        return hexagon_panel_strain(panels, closure)
-    return quad_panel_strain(panels, closure)
+        return hexagon_panel_strain(cast(list[HexagonActuatedPanel], panels), closure)
+    return quad_panel_strain(cast(list[ActuatedPanel], panels), closure)  # both check the kind
 
 
-def _strain_of_builds(builds, closure):
+def _strain_of_builds(builds: list[_Build], closure: npt.ArrayLike) -> PanelStrain:
     if _is_hexagon(builds):
         return _hexagon_strain(builds, closure, STATIONS)
     return _quad_strain(builds, closure, STATIONS)
 
 
-def hinge_width_for_allowable_m(panel, closure=1.0):
+def hinge_width_for_allowable_m(panel: AnyActuatedPanel, closure: float = 1.0) -> float:
     """Return the hinge width [m] that keeps a hinge at its allowable strain at ``closure``.
 
     Inverts the hinge rule: ``b >= rho_max t_h / (2 eps_allow)``, with ``rho_max`` the peak
@@ -298,7 +313,7 @@ def hinge_width_for_allowable_m(panel, closure=1.0):
                  / (2.0 * panel.hinge.allowable_strain))
 
 
-def strain_exceedance(panel, closure=1.0):
+def strain_exceedance(panel: AnyActuatedPanel, closure: float = 1.0) -> str:
     """Describe a panel's peak hinge strain at ``closure`` against its allowable strain.
 
     Names the allowable strain and its source, and whether and by how much the hinge exceeds
@@ -327,8 +342,9 @@ def strain_exceedance(panel, closure=1.0):
     return sentence
 
 
-def warn_if_over_allowable(geometries, panel_ids, figure, template=None, closure=1.0,
-                           stacklevel=2):
+def warn_if_over_allowable(geometries: Iterable[Panel], panel_ids: Sequence[str], figure: str,
+                           template: Optional[AnyActuatedPanel] = None, closure: float = 1.0,
+                           stacklevel: int = 2) -> PanelStrain:
     """Warn once if any panel exceeds an allowable strain at ``closure``; return the strains.
 
     One :class:`StrainLimitWarning` names the worst panel (its id, the zone and its strain

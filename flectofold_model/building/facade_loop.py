@@ -39,6 +39,7 @@ from flectofold_model.facade.description import Facade
 from flectofold_model.facade.footprint import footprint_weights, representative_panel
 from flectofold_model.scheduling.facade_schedule import FacadeSchedule
 from flectofold_model.scheduling.objective import RoomAware
+from flectofold_model.scheduling.predictive import PredictiveController
 from flectofold_model.scheduling.scheduler import Reason
 from flectofold_model.shading.ray_casting import SUNLIT_MIN_SZ
 from flectofold_model.shading.table import ShadingTable
@@ -133,10 +134,12 @@ class FacadeInTheLoop:
         self.daylight = daylight
         if strategy == 'room-aware':
             schedule = cast(FacadeSchedule, self.schedule)  # every strategy but always open/closed
-            settings = schedule.predictive.parameters
+            # room-aware runs the predictive controller (_CONTROLLER)
+            predictive = cast(PredictiveController, schedule.predictive)
+            settings = predictive.parameters
             prices = dict(ROOM_PRICES, **(room_prices or {})) if daylight is not None else {}
             self.objective = RoomAware(settings.view_value_w_m2, self.diffuse, **prices)
-            schedule.predictive.objective = self.objective
+            predictive.objective = self.objective
         static = {'always open': 0.0, 'always closed': 1.0}.get(strategy)
         self.closure = np.full(len(self.facade), static if static is not None else
                                self.facade.control.get('default_closure', 0.0))

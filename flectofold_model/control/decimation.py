@@ -7,9 +7,11 @@ take theirs by :class:`Heartbeats`, and :func:`loop_start_s` sets where a simula
 periods fall between a process's ticks.
 """
 
+from typing import cast, Optional
+
 import numpy as np
 
-from flectofold_model._validate import real_scalar
+from flectofold_model._validate import BoolArray, real_scalar
 
 
 class PublishDecimator:
@@ -31,7 +33,7 @@ class PublishDecimator:
         How early a state may be and still be due [s], in ``[0, period_s)``.
     """
 
-    def __init__(self, period_s, slack_s):
+    def __init__(self, period_s: float, slack_s: float) -> None:
         self.period_s = real_scalar('period_s', period_s)
         if self.period_s <= 0.0:
             raise ValueError(f'period_s must be positive, got {self.period_s:g} s')
@@ -39,12 +41,13 @@ class PublishDecimator:
         if not 0.0 <= self.slack_s < self.period_s:
             raise ValueError(f'slack_s must lie in [0, period_s = {self.period_s:g}) s, got '
                              f'{self.slack_s:g} s')
-        self._next_s = None
-        self._last_s = None
+        self._next_s: Optional[float] = None
+        self._last_s: Optional[float] = None
 
-    def due(self, time_s):
+    def due(self, time_s: float) -> bool:
         """Whether the state at ``time_s`` [s] is kept; states must come in time order."""
-        if self._next_s is None or time_s < self._last_s - self.slack_s:
+        last_s = cast(float, self._last_s)  # None only together with _next_s
+        if self._next_s is None or time_s < last_s - self.slack_s:
             self._last_s, self._next_s = time_s, time_s + self.period_s
             return True
         self._last_s = time_s
@@ -56,11 +59,11 @@ class PublishDecimator:
         return True
 
     @property
-    def next_due_s(self):
+    def next_due_s(self) -> Optional[float]:
         """Time the next kept state is due at (less ``slack_s`` it counts) [s]; None at first."""
         return self._next_s
 
-    def restart(self):
+    def restart(self) -> None:
         """Forget the grid: the next state is kept and starts a new one."""
         self._next_s = self._last_s = None
 
@@ -83,7 +86,7 @@ class Heartbeats:
         How early a heartbeat may be and still be due [s] (as :class:`PublishDecimator`).
     """
 
-    def __init__(self, count, heartbeat_s, slack_s):
+    def __init__(self, count: int, heartbeat_s: float, slack_s: float) -> None:
         self.heartbeat_s = real_scalar('heartbeat_s', heartbeat_s)
         if self.heartbeat_s <= 0.0:
             raise ValueError(f'heartbeat_s must be positive, got {self.heartbeat_s:g} s')
@@ -92,7 +95,7 @@ class Heartbeats:
         self._published_reading = np.zeros(count, dtype=bool)
         self._was_active = np.zeros(count, dtype=bool)
 
-    def due(self, time_s, active, reading):
+    def due(self, time_s: float, active: BoolArray, reading: BoolArray) -> BoolArray:
         """Return which panels publish the state at ``time_s`` [s] (bool, one per panel).
 
         ``active``: which panels the loop moved since the last call; ``reading``: which have
@@ -111,7 +114,7 @@ class Heartbeats:
         return due
 
 
-def loop_start_s(now_s, until_next_tick_s, period_s):
+def loop_start_s(now_s: float, until_next_tick_s: Optional[float], period_s: float) -> float:
     """Return where a simulated loop's periods start, at a process's first tick ``now_s``.
 
     Half a period before the instant the tick was *due* (the next is due

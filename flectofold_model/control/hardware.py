@@ -14,9 +14,10 @@ keeps the simulation exact whatever the ROS clock does.
 import abc
 
 import numpy as np
+import numpy.typing as npt
 
-from flectofold_model._validate import in_range, real_array
-from flectofold_model.actuation import PneumaticPlant
+from flectofold_model._validate import BoolArray, FloatArray, in_range, real_array
+from flectofold_model.actuation import PlantParameters, PneumaticPlant
 
 
 class CushionDriver(abc.ABC):
@@ -26,7 +27,7 @@ class CushionDriver(abc.ABC):
     """True for a driver whose time only passes in :meth:`advance` (a simulation)."""
 
     @property
-    def comms_lost(self):
+    def comms_lost(self) -> bool:
         """Whether the last exchange with the valves failed (a fieldbus driver).
 
         While True the readings are NaN and :meth:`write_valves` writes nothing: the loop
@@ -37,28 +38,28 @@ class CushionDriver(abc.ABC):
 
     @property
     @abc.abstractmethod
-    def count(self):
+    def count(self) -> int:
         """Number of channels ``N``."""
 
     @property
     @abc.abstractmethod
-    def circuit(self):
+    def circuit(self) -> PlantParameters:
         """Valves and tubing as :class:`~.pneumatics.PlantParameters`, for the loop's model."""
 
     @abc.abstractmethod
-    def read_pressure_pa(self):
+    def read_pressure_pa(self) -> FloatArray:
         """Absolute cushion pressures (N,) [Pa]; NaN where a sensor gives no reading."""
 
     @abc.abstractmethod
-    def read_supply_pa(self):
+    def read_supply_pa(self) -> FloatArray:
         """Absolute supply pressures (N,) [Pa]; NaN where a sensor gives no reading."""
 
     @abc.abstractmethod
-    def write_valves(self, fill_opening, vent_opening):
+    def write_valves(self, fill_opening: npt.ArrayLike, vent_opening: npt.ArrayLike) -> None:
         """Set the fill and vent valve openings (N,), each in [0, 1]."""
 
     @property
-    def regulated(self):
+    def regulated(self) -> BoolArray:
         """Which channels (N,) a proportional pressure regulator drives; none by default.
 
         A regulated channel has no fill and vent valves of its own to command: its regulator,
@@ -68,7 +69,8 @@ class CushionDriver(abc.ABC):
         """
         return np.zeros(self.count, dtype=bool)
 
-    def write_outputs(self, fill_opening, vent_opening, regulator_gauge_pa):
+    def write_outputs(self, fill_opening: npt.ArrayLike, vent_opening: npt.ArrayLike,
+                      regulator_gauge_pa: npt.ArrayLike) -> None:
         """Set valve openings and regulator setpoints (N,) together, as one write.
 
         For drivers with :attr:`regulated` channels, which take ``regulator_gauge_pa``
@@ -77,11 +79,11 @@ class CushionDriver(abc.ABC):
         """
         raise NotImplementedError(f'{type(self).__name__} has no pressure regulators')
 
-    def advance(self, dt_s):
+    def advance(self, dt_s: float) -> None:
         """Let ``dt_s`` seconds pass (simulated drivers only)."""
         raise NotImplementedError(f'{type(self).__name__} runs in real time')
 
-    def close(self):
+    def close(self) -> None:
         """Shut every valve: what a driver does when its owner stops."""
         self.write_valves(np.zeros(self.count), np.zeros(self.count))
 
@@ -94,7 +96,7 @@ class SimulatedCushions(CushionDriver):
 
     simulated = True
 
-    def __init__(self, plant):
+    def __init__(self, plant: PneumaticPlant) -> None:
         if not isinstance(plant, PneumaticPlant):
             raise TypeError(f'plant must be a PneumaticPlant, got {type(plant).__name__}')
         self.plant = plant
@@ -102,28 +104,28 @@ class SimulatedCushions(CushionDriver):
         self._vent = np.zeros(plant.count)
 
     @property
-    def count(self):
+    def count(self) -> int:
         return self.plant.count
 
     @property
-    def circuit(self):
+    def circuit(self) -> PlantParameters:
         return self.plant.parameters
 
-    def read_pressure_pa(self):
+    def read_pressure_pa(self) -> FloatArray:
         return self.plant.read_sensor()
 
-    def read_supply_pa(self):
+    def read_supply_pa(self) -> FloatArray:
         return self.plant.read_supply_sensor()
 
-    def write_valves(self, fill_opening, vent_opening):
+    def write_valves(self, fill_opening: npt.ArrayLike, vent_opening: npt.ArrayLike) -> None:
         fill = openings('fill_opening', fill_opening, self.count)
         vent = openings('vent_opening', vent_opening, self.count)
         self._fill, self._vent = fill, vent
 
-    def advance(self, dt_s):
+    def advance(self, dt_s: float) -> None:
         self.plant.step(dt_s, self._fill, self._vent)
 
-    def valve_openings(self, copy=True):
+    def valve_openings(self, copy: bool = True) -> tuple[FloatArray, FloatArray]:
         """Return the fill and vent openings (N,) in force.
 
         ``copy=False``: the live arrays, which a compiled simulation that writes the valves
@@ -132,11 +134,11 @@ class SimulatedCushions(CushionDriver):
         return (self._fill.copy(), self._vent.copy()) if copy else (self._fill, self._vent)
 
     @property
-    def free_air_used_m3(self):
+    def free_air_used_m3(self) -> FloatArray:
         """Air each channel drew from the supply, at ANR conditions (N,) [m^3]."""
         return self.plant.free_air_used_m3
 
 
-def openings(name, value, count):
+def openings(name: str, value: npt.ArrayLike, count: int) -> FloatArray:
     array = np.broadcast_to(real_array(name, value), (count,)).astype(np.float64)
     return in_range(name, array, 0.0, 1.0)

@@ -19,11 +19,13 @@ Pressures in Pa (absolute unless the name says gauge), times in s.
 """
 
 import math
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 import numpy as np
+import numpy.typing as npt
 
 from flectofold_model._compiled import inline_kernel, kernel
+from flectofold_model._validate import FloatArray, IntArray
 from flectofold_model.actuation.flow import ATMOSPHERIC_PRESSURE_PA
 from flectofold_model.actuation.integration import cushion_off_stops, mass_flow, off_stops
 
@@ -68,10 +70,12 @@ class LoopParameters(NamedTuple):
     hold_band_pa: float
 
 
-def parameter_tuple(parameters):
+def parameter_tuple(parameters: object) -> tuple[float, ...]:
     """Return the :class:`~.pressure_loop.ControllerParameters` as the kernels take them.
 
-    A plain tuple of the :class:`LoopParameters` fields, in their order.
+    A plain tuple of the :class:`LoopParameters` fields, in their order, read by name from
+    ``parameters`` (any object that has them; typed ``object`` because the loop's module
+    imports this one).
     """
     return tuple(getattr(parameters, name) for name in LoopParameters._fields)
 
@@ -115,7 +119,9 @@ class MapTables(NamedTuple):
 
 
 @inline_kernel
-def named_loop(parameters, circuit, tables):
+def named_loop(parameters: tuple[float, ...], circuit: tuple[float, ...],
+               tables: tuple[npt.NDArray[Any], ...]
+               ) -> tuple[LoopParameters, LoopCircuit, MapTables]:
     """Return the loop's tuples with their fields named.
 
     :class:`LoopParameters`, :class:`LoopCircuit` and :class:`MapTables` of the plain tuples
@@ -125,7 +131,7 @@ def named_loop(parameters, circuit, tables):
 
 
 @inline_kernel
-def pressure_for_closure(tables, i, closure):
+def pressure_for_closure(tables: MapTables, i: int, closure: float) -> float:
     """Gauge pressure [Pa] holding ``closure`` of panel ``i``: the map, interpolated."""
     closures = tables.closures
     position = closure / (closures[1] - closures[0])
@@ -135,7 +141,7 @@ def pressure_for_closure(tables, i, closure):
 
 
 @inline_kernel
-def feedback(tables, i, gauge_pa):
+def feedback(tables: MapTables, i: int, gauge_pa: float) -> tuple[float, float]:
     """Closure and apex fold angle [rad] of panel ``i`` at a gauge pressure, by the map."""
     closures = tables.closures
     values = tables.pressure_pa[tables.row[i]]
@@ -151,7 +157,8 @@ def feedback(tables, i, gauge_pa):
 
 
 @kernel
-def feedback_all(state, tables, closure, fold_angle_rad):
+def feedback_all(state: FloatArray, tables: tuple[npt.NDArray[Any], ...], closure: FloatArray,
+                 fold_angle_rad: FloatArray) -> None:
     """Closure and apex fold angle (N,) of every panel at its filtered pressure."""
     tables = MapTables(*tables)
     for i in range(closure.shape[0]):
@@ -159,8 +166,9 @@ def feedback_all(state, tables, closure, fold_angle_rad):
 
 
 @inline_kernel
-def control_panel(i, dt_s, setpoint, measured_pa, supply_pa, state, codes, parameters, circuit,
-                  tables):
+def control_panel(i: int, dt_s: float, setpoint: float, measured_pa: float, supply_pa: float,
+                  state: FloatArray, codes: IntArray, parameters: LoopParameters,
+                  circuit: LoopCircuit, tables: MapTables) -> tuple[float, float]:
     """One period of panel ``i``'s loop: update its state, return its fill and vent openings.
 
     ``parameters``, ``circuit`` and ``tables`` are named (:func:`named_loop`).
@@ -207,7 +215,9 @@ def control_panel(i, dt_s, setpoint, measured_pa, supply_pa, state, codes, param
 
 
 @inline_kernel
-def _regulate(i, dt_s, previous_reference, supply_pa, state, parameters, circuit, tables):
+def _regulate(i: int, dt_s: float, previous_reference: float, supply_pa: float, state: FloatArray,
+              parameters: LoopParameters, circuit: LoopCircuit, tables: MapTables
+              ) -> tuple[float, float]:
     """PI in pressure-rate space, linearised by the capacitance and the valves' capacities."""
     pressure, reference = state[FILTERED, i], state[REFERENCE, i]
     error = reference - pressure
@@ -256,7 +266,8 @@ def _regulate(i, dt_s, previous_reference, supply_pa, state, parameters, circuit
 
 
 @inline_kernel
-def _detect_faults(i, dt_s, measured_pa, readable, supply_pa, state, codes, parameters):
+def _detect_faults(i: int, dt_s: float, measured_pa: float, readable: bool, supply_pa: float,
+                   state: FloatArray, codes: IntArray, parameters: LoopParameters) -> None:
     state[DROPOUT_TIMER, i] = 0.0 if readable else state[DROPOUT_TIMER, i] + dt_s
     moving_air = state[LAST_FILL, i] > 0.05 or state[LAST_VENT, i] > 0.05
     expect_change = moving_air or parameters.expected_noise_pa > 0
@@ -285,7 +296,8 @@ def _detect_faults(i, dt_s, measured_pa, readable, supply_pa, state, codes, para
 
 
 @inline_kernel
-def _leak_stalled(i, dt_s, readable, state, parameters):
+def _leak_stalled(i: int, dt_s: float, readable: bool, state: FloatArray,
+                  parameters: LoopParameters) -> bool:
     """Return whether the pressure stalled short of the reference with the fill valve open.
 
     True after a whole leak window with the fill valve wide open and the pressure short of the
@@ -304,7 +316,8 @@ def _leak_stalled(i, dt_s, readable, state, parameters):
 
 
 @inline_kernel
-def _uncommanded_inflow(i, dt_s, readable, state, parameters):
+def _uncommanded_inflow(i: int, dt_s: float, readable: bool, state: FloatArray,
+                        parameters: LoopParameters) -> bool:
     """Return whether venting failed to lower the pressure as the valve model says."""
     start = state[INFLOW_START, i]
     expected = state[EXPECTED_CHANGE, i] + dt_s * (
@@ -326,7 +339,8 @@ def _uncommanded_inflow(i, dt_s, readable, state, parameters):
 
 
 @inline_kernel
-def _apply_safety(i, fill, vent, readable, gauge, codes, parameters):
+def _apply_safety(i: int, fill: float, vent: float, readable: bool, gauge: float, codes: IntArray,
+                  parameters: LoopParameters) -> tuple[float, float]:
     if gauge >= parameters.max_gauge_pa - 2 * parameters.pressure_margin_pa:
         fill = 0.0
     if not readable:  # no trustworthy reading yet: do nothing rather than guess
@@ -346,8 +360,10 @@ def _apply_safety(i, fill, vent, readable, gauge, codes, parameters):
 
 
 @kernel
-def control_all(dt_s, setpoint, measured_pa, supply_pa, state, codes, parameters, circuit,
-                tables, fill, vent):
+def control_all(dt_s: float, setpoint: FloatArray, measured_pa: FloatArray, supply_pa: FloatArray,
+                state: FloatArray, codes: IntArray, parameters: tuple[float, ...],
+                circuit: tuple[float, ...], tables: tuple[npt.NDArray[Any], ...],
+                fill: FloatArray, vent: FloatArray) -> None:
     """One period of every panel's loop; the openings land in ``fill`` and ``vent`` (N,)."""
     parameters, circuit, tables = named_loop(parameters, circuit, tables)
     for i in range(setpoint.shape[0]):

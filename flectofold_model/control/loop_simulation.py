@@ -5,11 +5,19 @@ computes valve openings, and the plant then integrates over one period with thos
 """
 
 from dataclasses import dataclass
+from typing import Any, Callable, Iterable, Union
 
 import numpy as np
+import numpy.typing as npt
 
 from flectofold_model._validate import real_scalar
-from flectofold_model.actuation import ATMOSPHERIC_PRESSURE_PA
+from flectofold_model.actuation import ATMOSPHERIC_PRESSURE_PA, PneumaticPlant
+from flectofold_model.control.pressure_loop import PressureController
+
+#: A closure setpoint (scalar or (N,)), or a function of the time [s] that returns one.
+Setpoint = Union[npt.ArrayLike, Callable[[float], npt.ArrayLike]]
+#: A fault injected at a time [s]: the function is called with the plant and the controller.
+Event = tuple[float, Callable[[PneumaticPlant, PressureController], object]]
 
 
 @dataclass(frozen=True)
@@ -31,7 +39,9 @@ class LoopTrace:
     """Fault value strings, see :class:`~flectofold_model.control.pressure_loop.Fault`."""
 
 
-def simulate(controller, plant, setpoint, duration_s, control_period_s=0.01, events=()):
+def simulate(controller: PressureController, plant: PneumaticPlant, setpoint: Setpoint,
+             duration_s: float, control_period_s: float = 0.01,
+             events: Iterable[Event] = ()) -> LoopTrace:
     """Run ``controller`` on ``plant`` for ``duration_s``.
 
     ``setpoint`` is a closure (scalar or (N,)) or a function of time returning one.
@@ -44,7 +54,8 @@ def simulate(controller, plant, setpoint, duration_s, control_period_s=0.01, eve
         raise ValueError('duration_s and control_period_s must be positive')
     steps = int(round(duration_s / period))
     pending = sorted(events, key=lambda event: event[0])
-    columns = {name: [] for name in LoopTrace.__dataclass_fields__ if name != 'time_s'}
+    columns: dict[str, list[npt.NDArray[Any]]] = {
+        name: [] for name in LoopTrace.__dataclass_fields__ if name != 'time_s'}
     times = []
     for step in range(steps + 1):
         now = step * period
@@ -68,7 +79,7 @@ def simulate(controller, plant, setpoint, duration_s, control_period_s=0.01, eve
                      **{name: np.array(values) for name, values in columns.items()})
 
 
-def _record(columns, **values):
+def _record(columns: dict[str, list[npt.NDArray[Any]]], **values: npt.ArrayLike) -> None:
     for name, value in values.items():
         columns[name].append(np.array(value, copy=True))
 
@@ -85,7 +96,8 @@ class StepMetrics:
     """Mean absolute error over the last ``steady_window_s``, as a fraction of the step."""
 
 
-def step_metrics(trace, panel, step_time_s, band_fraction=0.02, steady_window_s=5.0):
+def step_metrics(trace: LoopTrace, panel: int, step_time_s: float, band_fraction: float = 0.02,
+                 steady_window_s: float = 5.0) -> StepMetrics:
     """Settling time, overshoot and steady error of ``panel`` for the step at ``step_time_s``."""
     after = trace.time_s >= step_time_s
     time = trace.time_s[after] - step_time_s

@@ -21,21 +21,27 @@ from dataclasses import dataclass
 from itertools import islice
 import math
 import time
+from typing import Any, cast, Iterable, Optional, TYPE_CHECKING
 
 import numpy as np
+import numpy.typing as npt
 
-from flectofold_model._validate import in_range, real_array, real_scalar
+from flectofold_model._validate import BoolArray, FloatArray, in_range, real_array, real_scalar
 from flectofold_model.actuation import (actuated_like, actuation_model_of, ActuationModel,
                                         DEMONSTRATOR_ACTUATED, PneumaticPlant,
                                         StaticActuationModel)
-from flectofold_model.actuation.circuit import DEMONSTRATOR_PLANT
+from flectofold_model.actuation.circuit import DEMONSTRATOR_PLANT, PlantParameters
 from flectofold_model.actuation.cushion_map import CushionMap
 from flectofold_model.control.decimation import PublishDecimator
 from flectofold_model.control.hardware import CushionDriver, SimulatedCushions
 from flectofold_model.control.pressure_loop import (ControllerParameters, Fault,
-                                                    PressureController)
+                                                    PanelSelection, PressureController,
+                                                    SafeAction, ValveCommand)
 from flectofold_model.control.regulator import RegulatorSetpoints
 from flectofold_model.structure.facade_map import facade_cushion_map
+
+if TYPE_CHECKING:  # a facade's description loads where a facade is read
+    from flectofold_model.facade.description import Facade
 
 #: States a loop keeps: nodes that take them at least this often lose none.
 SAMPLE_HISTORY = 4096
@@ -110,9 +116,12 @@ class PanelLoops:
         catches up fully.
     """
 
-    def __init__(self, model, driver, control_period_s=0.1, parameters=ControllerParameters(),
-                 max_catch_up_s=3600.0, quiet_period_s=None, cushion_map=None,
-                 max_call_s=None):
+    def __init__(self, model: StaticActuationModel, driver: CushionDriver,
+                 control_period_s: float = 0.1,
+                 parameters: ControllerParameters = ControllerParameters(),
+                 max_catch_up_s: float = 3600.0, quiet_period_s: Optional[float] = None,
+                 cushion_map: Optional[CushionMap] = None,
+                 max_call_s: Optional[float] = None) -> None:
         if not isinstance(model, StaticActuationModel):
             raise TypeError(f'model must be an ActuationModel or a HexagonActuationModel, got '
                             f'{type(model).__name__}')
@@ -144,13 +153,13 @@ class PanelLoops:
         """The :class:`~.regulator.RegulatorSetpoints` of a driver with regulated channels,
         else None."""
         self._setpoint = np.zeros(len(model))
-        self.measured_pa = np.full(len(model), np.nan)
-        self._rested_setpoint = None
-        self.time_s = None
-        self._feedback = None
-        self._sample_periods = {}
-        self._sampler = None
-        self.samples = deque(maxlen=SAMPLE_HISTORY)
+        self.measured_pa: FloatArray = np.full(len(model), np.nan)
+        self._rested_setpoint: Optional[FloatArray] = None
+        self.time_s: Optional[float] = None
+        self._feedback: Optional[tuple[FloatArray, FloatArray]] = None
+        self._sample_periods: dict[int, float] = {}
+        self._sampler: Optional[PublishDecimator] = None
+        self.samples: deque[LoopSample] = deque(maxlen=SAMPLE_HISTORY)
         self._sequence = 0
         self.compiled = isinstance(driver, SimulatedCushions) and \
             type(driver).advance is SimulatedCushions.advance and \
@@ -158,29 +167,31 @@ class PanelLoops:
         """Whether whole runs of periods go to the compiled simulation (a simulated driver on
         the compiled engine) rather than one period per Python call."""
         self._runs_per_call = max(8, min(512, RUN_BUDGET // len(model)))
-        self._work = None
+        self._work: Optional[tuple[Any, ...]] = None
         self._resting_flags = np.zeros(len(model), dtype=bool)
 
-    def __len__(self):
+    def __len__(self) -> int:
         return self._setpoint.shape[0]
 
     @property
-    def setpoint(self):
+    def setpoint(self) -> FloatArray:
         """Closure setpoints being tracked (N,), read-only; set them with :meth:`set_setpoints`."""
         view = self._setpoint.view()
         view.flags.writeable = False
         return view
 
-    def set_setpoints(self, closure, panels=slice(None)):
+    def set_setpoints(self, closure: npt.ArrayLike,
+                      panels: PanelSelection = slice(None)) -> None:
         """Track closures in [0, 1] (scalar or one per selected panel) from the next period."""
         closure = in_range('closure', real_array('closure', closure), 0.0, 1.0)
         self._setpoint[panels] = closure
 
-    def set_safe_action(self, action, panels=None):
+    def set_safe_action(self, action: SafeAction,
+                        panels: Optional[PanelSelection] = None) -> None:
         """VENT (default) or HOLD for panels with a latched circuit fault."""
         self.controller.set_safe_action(action, panels)
 
-    def advance_to(self, now_s):
+    def advance_to(self, now_s: float) -> LoopAdvance:
         """Run the loop up to the clock reading ``now_s`` [s]; repeated readings do nothing.
 
         The first call only starts the clock. A clock that goes backwards (a replayed bag
@@ -225,7 +236,7 @@ class PanelLoops:
             self._resting_until = finished + (finished - started)
         return LoopAdvance(run, skipped * self.period_s, self.behind_s)
 
-    def _run_periods(self, periods, deadline):
+    def _run_periods(self, periods: int, deadline: Optional[float]) -> tuple[int, int]:
         """Run ``periods`` periods one Python call each; return the runs and the periods left."""
         run = 0
         while periods:
@@ -239,17 +250,18 @@ class PanelLoops:
             self.driver.advance(span * self.period_s)
             periods -= span
             run += 1
-            self.time_s += span * self.period_s
-            if span > 1:
+            self.time_s = cast(float, self.time_s) + span * self.period_s  # set by advance_to
+            if span > 1 and held is not None:  # held: computed for every quiet span
                 self._hold_samples(self.time_s, *held)
             self._sample(self.time_s)
             if deadline is not None and time.monotonic() > deadline:
                 break  # out of time for this call: the rest waits for the next one
         return run, periods
 
-    def _run_compiled(self, periods, deadline):
+    def _run_compiled(self, periods: int, deadline: Optional[float]) -> tuple[int, int]:
         """:meth:`_run_periods` in the compiled simulation, many periods per call."""
-        controller, plant, count = self.controller, self.driver.plant, len(self)
+        driver = cast(SimulatedCushions, self.driver)  # self.compiled: a simulated driver
+        controller, plant, count = self.controller, driver.plant, len(self)
         if self._work is None:
             from flectofold_model.control.simulation_kernel import run_periods
             size = self._runs_per_call
@@ -259,7 +271,7 @@ class PanelLoops:
         run_periods, spans, measured, closure, fold_angle, rested, active = self._work
         # nothing has rested yet: NaN equals no setpoint, so the first run cannot be quiet
         rested[:] = np.nan if self._rested_setpoint is None else self._rested_setpoint
-        fill, vent = self.driver.valve_openings(copy=False)
+        fill, vent = driver.valve_openings(copy=False)
         run = 0
         while periods:
             runs = min(self._runs_per_call, periods)
@@ -277,7 +289,7 @@ class PanelLoops:
             self._rested_setpoint = rested
             self.quiet_periods_run += quiet
             for r in range(made):
-                self.time_s += int(spans[r]) * self.period_s
+                self.time_s = cast(float, self.time_s) + int(spans[r]) * self.period_s
                 if spans[r] > 1:
                     self._hold_samples(self.time_s, (closure[r], fold_angle[r]), measured[r])
                 self._sample(self.time_s, (closure[r + 1], fold_angle[r + 1]), measured[r + 1],
@@ -293,7 +305,7 @@ class PanelLoops:
 
     # -- samples ---------------------------------------------------------------------------
 
-    def request_sample_period(self, row, period_s):
+    def request_sample_period(self, row: int, period_s: float) -> None:
         """Keep states at least every ``period_s`` [s] of the loop's clock for ``row``.
 
         The loop keeps them at the shortest period any row asked for; each row then picks
@@ -307,7 +319,9 @@ class PanelLoops:
         if self._sampler is None or shortest != self._sampler.period_s:
             self._sampler = PublishDecimator(shortest, slack_s=0.5 * self.period_s)
 
-    def _sample(self, clock_s, feedback=None, measured_pa=None, active=None):
+    def _sample(self, clock_s: float, feedback: Optional[tuple[FloatArray, FloatArray]] = None,
+                measured_pa: Optional[FloatArray] = None,
+                active: Optional[BoolArray] = None) -> None:
         """Keep the feedback when the sampler says so, at the loop clock's own time.
 
         A loop that catches up a long clock jump in one call thereby still leaves its states
@@ -320,9 +334,11 @@ class PanelLoops:
         if feedback is None:
             feedback, measured_pa = self.current_feedback(), self.measured_pa
             active = self.controller.active
-        self._keep(clock_s, feedback, measured_pa, active)
+        # measured_pa and active: given together with feedback
+        self._keep(clock_s, feedback, cast(FloatArray, measured_pa), cast(BoolArray, active))
 
-    def _hold_samples(self, end_s, feedback, measured_pa):
+    def _hold_samples(self, end_s: float, feedback: tuple[FloatArray, FloatArray],
+                      measured_pa: FloatArray) -> None:
         """Keep the states due inside a quiet span that ended at ``end_s``, as last measured.
 
         A quiet span (every panel resting, valves shut) reads the sensors once, at its start:
@@ -336,13 +352,14 @@ class PanelLoops:
             sampler.due(due_s)
             self._keep(due_s, feedback, measured_pa, self._resting_flags)
 
-    def _keep(self, time_s, feedback, measured_pa, active):
+    def _keep(self, time_s: float, feedback: tuple[FloatArray, FloatArray],
+              measured_pa: FloatArray, active: BoolArray) -> None:
         self._sequence += 1
         closure, fold_angle = feedback
         self.samples.append(LoopSample(self._sequence, time_s, closure.copy(), fold_angle.copy(),
                                        measured_pa.copy(), active.copy()))
 
-    def samples_since(self, sequence, limit=None):
+    def samples_since(self, sequence: int, limit: Optional[int] = None) -> list[LoopSample]:
         """Return the kept :class:`LoopSample` objects after ``sequence``, oldest first.
 
         Costs the number of samples returned, not the number kept: sequences count up by one,
@@ -357,16 +374,17 @@ class PanelLoops:
 
     # -- the loop --------------------------------------------------------------------------
 
-    def _resting(self):
+    def _resting(self) -> bool:
         """Every panel at rest in its hold band (valves shut), setpoints unchanged."""
         controller = self.controller
         last = controller.last_command
         return (self.quiet_periods > 1 and controller.parameters.hold_band_pa > 0.0
+                and self._rested_setpoint is not None
                 and np.array_equal(self._setpoint, self._rested_setpoint)
                 and not np.any(last.fill_opening) and not np.any(last.vent_opening)
                 and np.array_equal(controller.reference_gauge_pa, controller.target_gauge_pa))
 
-    def _period(self, dt_s):
+    def _period(self, dt_s: float) -> ValveCommand:
         self._rested_setpoint = self._setpoint.copy()
         self.measured_pa = self.driver.read_pressure_pa()
         if self.driver.comms_lost:  # before the step, which then takes the safe action
@@ -383,7 +401,7 @@ class PanelLoops:
 
     # -- feedback --------------------------------------------------------------------------
 
-    def current_feedback(self):
+    def current_feedback(self) -> tuple[FloatArray, FloatArray]:
         """Closure and fold angle (N,) of the last period, computed once per period."""
         if self._feedback is None:
             closure, fold_angle = np.empty(len(self)), np.empty(len(self))
@@ -392,41 +410,42 @@ class PanelLoops:
         return self._feedback
 
     @property
-    def gauge_pa(self):
+    def gauge_pa(self) -> FloatArray:
         """The loop's filtered cushion pressure (N,) [Pa gauge]."""
         return self.controller.filtered_gauge_pa.copy()
 
     @property
-    def closure(self):
+    def closure(self) -> FloatArray:
         """Closure (N,) the static map gives for the filtered measured pressure."""
         return self.current_feedback()[0].copy()
 
     @property
-    def fold_angle_rad(self):
+    def fold_angle_rad(self) -> FloatArray:
         """Flap fold angle at the crease apex (N,) [rad], from :attr:`closure`."""
         return self.current_feedback()[1].copy()
 
     @property
-    def fault(self):
+    def fault(self) -> npt.NDArray[np.object_]:
         """Latched circuit fault of each panel (N,), :class:`~.pressure_loop.Fault` objects."""
         return self.controller.fault.copy()
 
-    def reset_faults(self, panels=None):
+    def reset_faults(self, panels: Optional[PanelSelection] = None) -> None:
         """Clear latched circuit faults; see :meth:`PressureController.reset_faults`."""
         self.controller.reset_faults(panels)
 
     @property
-    def free_air_used_nl(self):
+    def free_air_used_nl(self) -> FloatArray:
         """Air drawn from the supply per panel [NL], where the driver measures it, else NaN."""
         used = getattr(self.driver, 'free_air_used_m3', None)
         return np.full(len(self), np.nan) if used is None else used * 1e3
 
-    def close(self):
+    def close(self) -> None:
         """Shut the valves: the panels keep their air (a held position) until vented."""
         self.driver.close()
 
 
-def _regulators(controller, driver):
+def _regulators(controller: PressureController,
+                driver: CushionDriver) -> Optional[RegulatorSetpoints]:
     """Return the RegulatorSetpoints of a driver with regulated channels, None for valves."""
     regulated = np.asarray(driver.regulated)
     if not np.any(regulated):
@@ -438,14 +457,14 @@ def _regulators(controller, driver):
     return RegulatorSetpoints(controller, regulated)
 
 
-def _positive(name, value, largest):
+def _positive(name: str, value: float, largest: float) -> float:
     value = real_scalar(name, value)
     if not 0.0 < value <= largest:
         raise ValueError(f'{name} must lie in (0, {largest:g}], got {value:g}')
     return value
 
 
-def compile_kernels():
+def compile_kernels() -> None:
     """Compile the kernels simulated loops run, or load them from the cache, before they run.
 
     Compiling takes tens of CPU seconds the first time after a change to the model (then the
@@ -465,9 +484,11 @@ def compile_kernels():
         loops.advance_to(0.3)
 
 
-def facade_loops(facade, panel_ids, control_period_s=0.1, parameters=ControllerParameters(),
-                 circuit=DEMONSTRATOR_PLANT, seed=0, quiet_period_s=None, max_call_s=None,
-                 driver=None, trace=True):
+def facade_loops(facade: 'Facade', panel_ids: Iterable[str], control_period_s: float = 0.1,
+                 parameters: ControllerParameters = ControllerParameters(),
+                 circuit: PlantParameters = DEMONSTRATOR_PLANT, seed: int = 0,
+                 quiet_period_s: Optional[float] = None, max_call_s: Optional[float] = None,
+                 driver: Optional[CushionDriver] = None, trace: bool = True) -> PanelLoops:
     """Build :class:`PanelLoops` for some panels of a facade on one simulated circuit.
 
     Each panel is actuated like its kind's preset module (the quad demonstrator or the
@@ -487,7 +508,8 @@ def facade_loops(facade, panel_ids, control_period_s=0.1, parameters=ControllerP
                       max_call_s=max_call_s)
 
 
-def facade_actuation(facade, panel_ids, trace=True):
+def facade_actuation(facade: 'Facade', panel_ids: Iterable[str],
+                     trace: bool = True) -> tuple[StaticActuationModel, CushionMap]:
     """Return the actuation model and its cushion map for ``panel_ids`` of ``facade``.
 
     Each panel is actuated like its kind's preset module
@@ -500,12 +522,13 @@ def facade_actuation(facade, panel_ids, trace=True):
     return model, facade_cushion_map(facade, model, trace)
 
 
-def facade_plant(model, cushion_map, circuit=DEMONSTRATOR_PLANT, seed=0):
+def facade_plant(model: StaticActuationModel, cushion_map: CushionMap,
+                 circuit: PlantParameters = DEMONSTRATOR_PLANT, seed: int = 0) -> PneumaticPlant:
     """Return the simulated plant of ``model``'s panels on the compiled engine, a channel each."""
     return PneumaticPlant(circuit, cushion_map, len(model), seed=seed, integrator='embedded')
 
 
-def panel_indices(facade, panel_ids):
+def panel_indices(facade: 'Facade', panel_ids: Iterable[str]) -> list[int]:
     """Positions of ``panel_ids`` in ``facade.panel_ids``; unknown or repeated ids raise."""
     panel_ids = list(panel_ids)
     if not panel_ids:

@@ -35,14 +35,21 @@ Structure (vectorised over panels, one call per control tick):
 from dataclasses import dataclass, fields
 import enum
 import math
+from typing import Optional, Sequence, Union
 import warnings
 
 import numpy as np
+import numpy.typing as npt
 
-from flectofold_model._validate import in_range, real_array, real_fields, real_scalar
+from flectofold_model._validate import (BoolArray, FloatArray, in_range, IntArray, real_array,
+                                        real_fields, real_scalar)
 from flectofold_model.actuation import (AIR_GAS_CONSTANT, ATMOSPHERIC_PRESSURE_PA, CushionMap,
                                         PlantParameters, UnreachableClosureWarning)
 from flectofold_model.actuation.flow import ANR_DENSITY_KG_M3, ANR_TEMPERATURE_K
+
+
+#: Which panels a call is for: a boolean mask (N,), panel indices or a slice.
+PanelSelection = Union[BoolArray, IntArray, Sequence[int], int, slice]
 
 
 class Fault(enum.Enum):
@@ -110,7 +117,7 @@ class ControllerParameters:
     is within this of it [Pa]: a panel at rest does not chatter its valves on sensor noise.
     Three noise standard deviations suit; 0 regulates continuously."""
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         real_fields(self)
         for field in fields(self):
             if getattr(self, field.name) < 0.0:
@@ -142,8 +149,9 @@ class PressureController:
     what comes in and names what goes out.
     """
 
-    def __init__(self, cushion_map, plant, parameters=ControllerParameters(),
-                 safe_action=SafeAction.VENT):
+    def __init__(self, cushion_map: CushionMap, plant: PlantParameters,
+                 parameters: ControllerParameters = ControllerParameters(),
+                 safe_action: SafeAction = SafeAction.VENT) -> None:
         if not isinstance(cushion_map, CushionMap):
             raise TypeError(f'cushion_map must be a CushionMap, got {type(cushion_map).__name__}')
         if not isinstance(plant, PlantParameters):
@@ -186,63 +194,63 @@ class PressureController:
         self._vent = np.zeros(count)
         self._warn_if_unreachable()
 
-    def __len__(self):
+    def __len__(self) -> int:
         return self.state.shape[1]
 
-    def _row(self, name):
+    def _row(self, name: str) -> FloatArray:
         view = self.state[getattr(self._kernel, name)]
         view.flags.writeable = False
         return view
 
     @property
-    def target_gauge_pa(self):
+    def target_gauge_pa(self) -> FloatArray:
         """Pressure target of each loop [Pa gauge] (N,), read-only."""
         return self._row('TARGET')
 
     @property
-    def reference_gauge_pa(self):
+    def reference_gauge_pa(self) -> FloatArray:
         """Rate-limited pressure reference [Pa gauge] (N,), read-only."""
         return self._row('REFERENCE')
 
     @property
-    def filtered_gauge_pa(self):
+    def filtered_gauge_pa(self) -> FloatArray:
         """Filtered measured pressure [Pa gauge] (N,), read-only."""
         return self._row('FILTERED')
 
     @property
-    def target_pressure_limit_pa(self):
+    def target_pressure_limit_pa(self) -> FloatArray:
         """Highest target each loop aims at [Pa gauge] (N,), read-only."""
         return self._row('TARGET_LIMIT')
 
     @property
-    def active(self):
+    def active(self) -> BoolArray:
         """Whether each loop moves its panel (N,): a valve open, or the reference ramping."""
         k, state = self._kernel, self.state
         return (state[k.LAST_FILL] != 0.0) | (state[k.LAST_VENT] != 0.0) | \
             (state[k.REFERENCE] != state[k.TARGET])
 
     @property
-    def limited_by_supply(self):
+    def limited_by_supply(self) -> BoolArray:
         """Whether a weak supply holds the target below what the setpoint needs (N,)."""
         return self.state[self._kernel.LIMITED] != 0.0
 
     @property
-    def fault(self):
+    def fault(self) -> npt.NDArray[np.object_]:
         """Latched :class:`Fault` of each panel (N,), an object array."""
         return np.array([_FAULTS[code] for code in self.codes[self._kernel.FAULT]], dtype=object)
 
     @property
-    def fault_codes(self):
+    def fault_codes(self) -> IntArray:
         """Latched fault of each panel (N,) as its index in :class:`Fault`, read-only."""
         view = self.codes[self._kernel.FAULT]
         view.flags.writeable = False
         return view
 
-    def fault_at(self, index):
+    def fault_at(self, index: int) -> Fault:
         """Latched :class:`Fault` of panel ``index``."""
         return _FAULTS[self.codes[self._kernel.FAULT, index]]
 
-    def _warn_if_unreachable(self):
+    def _warn_if_unreachable(self) -> None:
         """Warn, naming the reachable closure, where the supply or the maximum cannot close."""
         supply_limit = (self.plant.supply_pressure_pa - ATMOSPHERIC_PRESSURE_PA
                         - 2 * self.parameters.supply_margin_pa)
@@ -258,14 +266,15 @@ class PressureController:
                 f'{closure:.3f}; setpoints above that are held there', UnreachableClosureWarning,
                 stacklevel=3)
 
-    def set_safe_action(self, action, panels=None):
+    def set_safe_action(self, action: SafeAction,
+                        panels: Optional[PanelSelection] = None) -> None:
         """Choose VENT or HOLD for faulted panels (all, or those selected by ``panels``)."""
         if not isinstance(action, SafeAction):
             raise TypeError(f'action must be a SafeAction, got {action!r}')
         code = self._kernel.VENT if action is SafeAction.VENT else self._kernel.HOLD
         self.codes[self._kernel.SAFE_ACTION, self._selection(panels)] = code
 
-    def reset_faults(self, panels=None):
+    def reset_faults(self, panels: Optional[PanelSelection] = None) -> None:
         """Clear latched faults; the loop restarts from the current measurement."""
         k, selected = self._kernel, self._selection(panels)
         self.codes[k.FAULT, selected] = k.NO_FAULT
@@ -276,7 +285,7 @@ class PressureController:
         for start in (k.LEAK_START, k.INFLOW_START):
             self.state[start, selected] = self.state[k.FILTERED, selected]
 
-    def clear_integral(self, panels=None):
+    def clear_integral(self, panels: Optional[PanelSelection] = None) -> None:
         """Zero the PI integral of the selected loops (all by default).
 
         For loops whose output a pressure regulator replaces (:mod:`.regulator`): there the
@@ -284,7 +293,7 @@ class PressureController:
         """
         self.state[self._kernel.INTEGRAL, self._selection(panels)] = 0.0
 
-    def latch_fault(self, fault, panels=None):
+    def latch_fault(self, fault: Fault, panels: Optional[PanelSelection] = None) -> int:
         """Latch ``fault`` on the selected panels that have none yet; return how many took it.
 
         For faults found outside the loop (:attr:`Fault.COMMS_LOST`); a latched fault is kept,
@@ -297,28 +306,29 @@ class PressureController:
         self.codes[k.FAULT, selected] = _FAULTS.index(fault)
         return int(np.count_nonzero(selected))
 
-    def _selection(self, panels):
+    def _selection(self, panels: Optional[PanelSelection]) -> BoolArray:
         mask = np.zeros(len(self), dtype=bool)
         mask[slice(None) if panels is None else panels] = True
         return mask
 
     @property
-    def last_command(self):
+    def last_command(self) -> ValveCommand:
         """The :class:`ValveCommand` of the last :meth:`step`."""
         k = self._kernel
         return ValveCommand(self.state[k.LAST_FILL].copy(), self.state[k.LAST_VENT].copy())
 
-    def feedback(self, closure, fold_angle_rad):
+    def feedback(self, closure: FloatArray, fold_angle_rad: FloatArray) -> None:
         """Write each panel's closure and apex fold angle [rad] at its filtered pressure (N,)."""
         self._kernel.feedback_all(self.state, self.kernel_tables, closure, fold_angle_rad)
 
-    def pressure_for_closure(self, closure):
+    def pressure_for_closure(self, closure: npt.ArrayLike) -> FloatArray:
         """Gauge-pressure target [Pa] for closure setpoints (N,) in [0, 1]."""
         closure = in_range('closure', np.broadcast_to(real_array('closure', closure),
                                                       (len(self),)), 0.0, 1.0)
         return np.minimum(self.map.pressure_for_closure(closure), self.target_pressure_limit_pa)
 
-    def step(self, dt_s, closure_setpoint, measured_pa, measured_supply_pa):
+    def step(self, dt_s: float, closure_setpoint: npt.ArrayLike, measured_pa: npt.ArrayLike,
+             measured_supply_pa: npt.ArrayLike) -> ValveCommand:
         """Advance every loop by ``dt_s`` and return the valve openings to apply now.
 
         ``closure_setpoint`` (N,) must be in [0, 1]; ``measured_pa`` and

@@ -28,9 +28,11 @@ monitors, comparing the pressure's course with the valve model, would then miss.
 """
 
 import numpy as np
+import numpy.typing as npt
 
+from flectofold_model._validate import BoolArray, FloatArray
 from flectofold_model.actuation import ATMOSPHERIC_PRESSURE_PA
-from flectofold_model.control.pressure_loop import Fault, PressureController
+from flectofold_model.control.pressure_loop import Fault, PressureController, ValveCommand
 
 _NO_FAULT = list(Fault).index(Fault.NONE)
 _COMMS_LOST = list(Fault).index(Fault.COMMS_LOST)
@@ -48,7 +50,7 @@ class RegulatorSetpoints:
         Which channels (N,) a regulator drives: their loops' integrals are held at zero.
     """
 
-    def __init__(self, controller, regulated):
+    def __init__(self, controller: PressureController, regulated: npt.ArrayLike) -> None:
         if not isinstance(controller, PressureController):
             raise TypeError(f'controller must be a PressureController, got '
                             f'{type(controller).__name__}')
@@ -64,7 +66,7 @@ class RegulatorSetpoints:
         self._held_gauge_pa = np.zeros(count)
         self._awaiting_reading = np.zeros(count, dtype=bool)
 
-    def update(self, command, measured_pa):
+    def update(self, command: ValveCommand, measured_pa: npt.ArrayLike) -> FloatArray:
         """Return the setpoints (N,) [Pa gauge] after a loop step.
 
         ``command``: the :class:`~.pressure_loop.ValveCommand` that step returned;
@@ -88,7 +90,8 @@ class RegulatorSetpoints:
         controller.clear_integral(self.regulated)
         return setpoint.copy()
 
-    def _lower_hold_after_comms_loss(self, lost, readable, measured_pa):
+    def _lower_hold_after_comms_loss(self, lost: BoolArray, readable: BoolArray,
+                                     measured_pa: FloatArray) -> None:
         """Hold no more than the pressure first read after a comms loss."""
         back = lost & readable & self._awaiting_reading
         self._held_gauge_pa[back] = np.minimum(

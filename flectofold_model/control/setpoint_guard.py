@@ -9,10 +9,11 @@ valid setpoint holds. When no valid setpoint arrived for ``timeout_s``
 
 import enum
 from numbers import Integral, Real
+from typing import cast, Optional
 
 import numpy as np
 
-from flectofold_model._validate import real_scalar
+from flectofold_model._validate import BoolArray, FloatArray, IntArray, real_scalar
 
 
 class SafeBehaviour(enum.Enum):
@@ -54,45 +55,47 @@ class SetpointGuards:
     #: The states, in the order of the codes :meth:`states` returns.
     STATES = (SetpointState.WAITING, SetpointState.TRACKING, SetpointState.TIMED_OUT)
 
-    def __init__(self, count, timeout_s, safe_behaviour=SafeBehaviour.VENT,
-                 initial_closure=0.0):
+    def __init__(self, count: int, timeout_s: float,
+                 safe_behaviour: SafeBehaviour = SafeBehaviour.VENT,
+                 initial_closure: float = 0.0) -> None:
         if isinstance(count, bool) or not isinstance(count, Integral) or count < 1:
             raise ValueError(f'count must be a whole number >= 1, got {count!r}')
         self.timeout_s = timeout_s
         self.safe_behaviour = safe_behaviour
-        self.last_valid = np.full(count, _closure_or_raise('initial_closure', initial_closure))
+        self.last_valid: FloatArray = np.full(
+            count, _closure_or_raise('initial_closure', initial_closure))
         """The last accepted setpoint of each panel (or the initial closure) [closure]."""
-        self._last_valid_s = np.full(count, np.nan)
-        self._started_s = None
-        self.received = np.zeros(count, dtype=bool)
+        self._last_valid_s: FloatArray = np.full(count, np.nan)
+        self._started_s: Optional[float] = None
+        self.received: BoolArray = np.zeros(count, dtype=bool)
         """Whether each panel has had a valid setpoint."""
-        self.rejected = np.zeros(count, dtype=np.int64)
+        self.rejected: IntArray = np.zeros(count, dtype=np.int64)
         """Setpoints refused, per panel."""
-        self.last_rejection = [''] * count
+        self.last_rejection: list[str] = [''] * count
         """Why each panel's last refused setpoint was refused."""
 
     @property
-    def timeout_s(self):
+    def timeout_s(self) -> float:
         """Watchdog time [s]."""
         return self._timeout_s
 
     @timeout_s.setter
-    def timeout_s(self, value):
+    def timeout_s(self, value: float) -> None:
         value = real_scalar('timeout_s', value)
         if value <= 0.0:
             raise ValueError(f'timeout_s must be positive, got {value:g} s')
         self._timeout_s = value
 
     @property
-    def safe_behaviour(self):
+    def safe_behaviour(self) -> SafeBehaviour:
         """The :class:`SafeBehaviour` after a timeout."""
         return self._safe_behaviour
 
     @safe_behaviour.setter
-    def safe_behaviour(self, value):
+    def safe_behaviour(self, value: SafeBehaviour) -> None:
         self._safe_behaviour = SafeBehaviour(value)
 
-    def offer(self, index, value, now_s):
+    def offer(self, index: int, value: object, now_s: float) -> Optional[str]:
         """Take panel ``index``'s setpoint received at ``now_s`` [s].
 
         Return ``None``, or why it was refused (then the last valid one holds).
@@ -103,12 +106,12 @@ class SetpointGuards:
             self.last_rejection[index] = reason
             return reason
         now_s = real_scalar('now_s', now_s)
-        self.last_valid[index] = float(value)
+        self.last_valid[index] = float(cast(float, value))  # a real number: checked above
         self._last_valid_s[index] = now_s
         self.received[index] = True
         return None
 
-    def states(self, now_s):
+    def states(self, now_s: float) -> IntArray:
         """Return each panel's state at ``now_s`` [s], as indices into :attr:`STATES`.
 
         The watchdog runs from the last valid setpoint, or from the first reading of the
@@ -122,7 +125,7 @@ class SetpointGuards:
         return np.where(now_s - since_s > self._timeout_s, _TIMED_OUT,
                         np.where(self.received, _TRACKING, _WAITING))
 
-    def command(self, now_s):
+    def command(self, now_s: float) -> tuple[FloatArray, IntArray]:
         """Return the closures to track at ``now_s`` [s] and the states (:meth:`states`)."""
         states = self.states(now_s)
         if self._safe_behaviour is SafeBehaviour.VENT:
@@ -145,62 +148,63 @@ class SetpointGuard:
         Closure tracked until the first valid setpoint, in [0, 1].
     """
 
-    def __init__(self, timeout_s, safe_behaviour=SafeBehaviour.VENT, initial_closure=0.0):
+    def __init__(self, timeout_s: float, safe_behaviour: SafeBehaviour = SafeBehaviour.VENT,
+                 initial_closure: float = 0.0) -> None:
         self.guards = SetpointGuards(1, timeout_s, safe_behaviour, initial_closure)
 
     @property
-    def timeout_s(self):
+    def timeout_s(self) -> float:
         """Watchdog time [s]."""
         return self.guards.timeout_s
 
     @timeout_s.setter
-    def timeout_s(self, value):
+    def timeout_s(self, value: float) -> None:
         self.guards.timeout_s = value
 
     @property
-    def safe_behaviour(self):
+    def safe_behaviour(self) -> SafeBehaviour:
         """The :class:`SafeBehaviour` after a timeout."""
         return self.guards.safe_behaviour
 
     @safe_behaviour.setter
-    def safe_behaviour(self, value):
+    def safe_behaviour(self, value: SafeBehaviour) -> None:
         self.guards.safe_behaviour = value
 
     @property
-    def last_valid(self):
+    def last_valid(self) -> float:
         """The last accepted setpoint (or the initial closure) [closure]."""
         return float(self.guards.last_valid[0])
 
     @property
-    def received(self):
+    def received(self) -> bool:
         """Whether a valid setpoint came."""
         return bool(self.guards.received[0])
 
     @property
-    def rejected(self):
+    def rejected(self) -> int:
         """Setpoints refused."""
         return int(self.guards.rejected[0])
 
     @property
-    def last_rejection(self):
+    def last_rejection(self) -> str:
         """Why the last refused setpoint was refused."""
         return self.guards.last_rejection[0]
 
-    def offer(self, value, now_s):
+    def offer(self, value: object, now_s: float) -> Optional[str]:
         """Take a setpoint received at ``now_s`` [s]; return ``None``, or why it was refused."""
         return self.guards.offer(0, value, now_s)
 
-    def state(self, now_s):
+    def state(self, now_s: float) -> SetpointState:
         """Return the :class:`SetpointState` at ``now_s`` [s]."""
         return SetpointGuards.STATES[self.guards.states(now_s)[0]]
 
-    def command(self, now_s):
+    def command(self, now_s: float) -> tuple[float, SetpointState]:
         """Return the closure to track at ``now_s`` [s] and the :class:`SetpointState`."""
         closures, states = self.guards.command(now_s)
         return float(closures[0]), SetpointGuards.STATES[states[0]]
 
 
-def _closure_problem(value):
+def _closure_problem(value: object) -> Optional[str]:
     if isinstance(value, bool) or not isinstance(value, Real):
         return f'setpoint must be a number, got {type(value).__name__}'
     value = float(value)
@@ -213,7 +217,7 @@ def _closure_problem(value):
     return None
 
 
-def _closure_or_raise(name, value):
+def _closure_or_raise(name: str, value: float) -> float:
     problem = _closure_problem(value)
     if problem is not None:
         raise ValueError(f'{name}: {problem}')

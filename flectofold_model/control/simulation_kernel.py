@@ -18,11 +18,13 @@ The engine's tuples have named fields (:class:`PlantArrays`, :class:`EngineConst
 entry, as :mod:`.loop_kernel` does its own.
 """
 
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 import numpy as np
+import numpy.typing as npt
 
 from flectofold_model._compiled import inline_kernel, kernel
+from flectofold_model._validate import BoolArray, FloatArray, IntArray
 from flectofold_model.actuation.integration import advance_panel, named_engine
 from flectofold_model.control.loop_kernel import (control_panel, feedback_all, LAST_FILL,
                                                   LAST_VENT, named_loop, REFERENCE, TARGET)
@@ -98,7 +100,8 @@ class SensorView(NamedTuple):
 
 
 @kernel
-def _resting(setpoint, rested_setpoint, state, hold_band_pa):
+def _resting(setpoint: FloatArray, rested_setpoint: FloatArray, state: FloatArray,
+             hold_band_pa: float) -> bool:
     """Every panel at rest: setpoint unchanged, valves shut, reference at its target."""
     if hold_band_pa <= 0.0:
         return False
@@ -110,14 +113,15 @@ def _resting(setpoint, rested_setpoint, state, hold_band_pa):
 
 
 @inline_kernel
-def _active(state, i):
+def _active(state: FloatArray, i: int) -> bool:
     """Whether the loop moves panel ``i``: a valve open or its reference still ramping."""
     return state[LAST_FILL, i] != 0.0 or state[LAST_VENT, i] != 0.0 or \
         state[REFERENCE, i] != state[TARGET, i]
 
 
 @kernel
-def _read_sensors(run, noise, plant, sensors, measured, supply_reading):
+def _read_sensors(run: int, noise: FloatArray, plant: PlantArrays, sensors: SensorView,
+                  measured: FloatArray, supply_reading: FloatArray) -> None:
     """Write every panel's cushion and supply readings, as the sensors give them.
 
     ``plant`` and ``sensors`` are named (:class:`PlantArrays`, :class:`SensorView`).
@@ -137,9 +141,14 @@ def _read_sensors(run, noise, plant, sensors, measured, supply_reading):
 
 
 @kernel
-def run_periods(periods, max_runs, period_s, quiet_periods, setpoint, rested_setpoint, noise,
-                state, codes, parameters, circuit, tables, plant, engine, sensors, fill, vent,
-                spans, measured, closure, fold_angle_rad, active):
+def run_periods(periods: int, max_runs: int, period_s: float, quiet_periods: int,
+                setpoint: FloatArray, rested_setpoint: FloatArray, noise: FloatArray,
+                state: FloatArray, codes: IntArray, parameters: tuple[float, ...],
+                circuit: tuple[float, ...], tables: tuple[npt.NDArray[Any], ...],
+                plant: tuple[npt.NDArray[Any], ...], engine: tuple[Any, ...],
+                sensors: tuple[Any, ...], fill: FloatArray, vent: FloatArray, spans: IntArray,
+                measured: FloatArray, closure: FloatArray, fold_angle_rad: FloatArray,
+                active: BoolArray) -> tuple[int, int, int, int, int]:
     """Run up to ``periods`` control periods in at most ``max_runs`` runs.
 
     ``parameters``, ``circuit`` and ``tables`` are the loop's (:mod:`.loop_kernel`);

@@ -60,9 +60,12 @@ import dataclasses
 from dataclasses import dataclass
 import math
 import re
+from typing import Callable, cast, Mapping, Optional, TYPE_CHECKING, Union
 
 import numpy as np
+import numpy.typing as npt
 
+from flectofold_model._validate import BoolArray, FloatArray, IntArray, PathLike
 from flectofold_model.environment.clear_sky import clear_sky_dni
 from flectofold_model.environment.sun import Site, solar_position
 from flectofold_model.environment.weather import (into_reference_year, REFERENCE_YEAR,
@@ -70,13 +73,20 @@ from flectofold_model.environment.weather import (into_reference_year, REFERENCE
 from flectofold_model.facade.footprint import footprint_weights, representative_panel
 from flectofold_model.scheduling.day_report import CANDIDATE_CLOSURES, interpolate
 from flectofold_model.scheduling.facade_schedule import full_close_air_nl, scheduler_parameters
-from flectofold_model.scheduling.frontier import ClosureProblem, frontier, limit_at, Limits
+from flectofold_model.scheduling.frontier import (ClosureProblem, frontier, Limit, limit_at,
+                                                  Limits, Point)
 from flectofold_model.scheduling.predictive import DEFAULT_CONTROLLER, PlanInputs
 from flectofold_model.scheduling.report_common import (limit_gaps, OTHER_ROW,
                                                        predictive_desired)
-from flectofold_model.scheduling.scheduler import Reason, Scheduler
+from flectofold_model.scheduling.scheduler import (Reason, Scheduler, ScheduleResult,
+                                                   SchedulerParameters)
 from flectofold_model.shading.ray_casting import choose_candidate, SUNLIT_MIN_SZ
 from flectofold_model.shading.table import ShadingTable
+
+if TYPE_CHECKING:  # the facade's and matplotlib's modules load when used
+    from matplotlib.axes import Axes
+
+    from flectofold_model.facade.description import Facade
 
 #: The rows of the report with the default controller (``target rule`` becomes
 #: ``predictive`` on a facade that runs the target rule).
@@ -98,6 +108,8 @@ DAYS_PER_YEAR = 365.0
 _MOVING = (Reason.RATE_LIMITED, Reason.WAITING_FOR_AIR)
 _NUMBERS = (int, float, np.integer, np.floating)
 _DATE = re.compile(r'^(?:\d{4}-)?(\d{2})-(\d{2})$')
+#: A strategy's desired closures: (T, N), or ``desired(i, commanded_closure)`` (N,).
+_Desired = Union[FloatArray, Callable[[int, FloatArray], FloatArray]]
 
 
 class AnnualReportError(ValueError):
@@ -163,39 +175,39 @@ class AnnualReport:
     daily_move_cap: int
     cycle_budget_per_year: float
     """``daily_move_cap x 365`` moves per panel and year (an assumption, see the docs)."""
-    threshold_w_m2: tuple
+    threshold_w_m2: tuple[float, float]
     """(on, off) irradiance thresholds of the threshold strategy [W/m2]."""
     months: np.ndarray
     """(12,) bool: local months the range touches."""
     site_offset_deg: float
     """Great-circle distance between the facade's site and the file's station [deg]."""
-    strategies: tuple
+    strategies: tuple[StrategyFigures, ...]
     """:class:`StrategyFigures` of scheduled, the other controller, threshold, always open,
     always closed and the limit (its view the limit's upper bound at scheduled's
     blocking)."""
     controller: str = DEFAULT_CONTROLLER
     """The facade's controller, run as ``scheduled``."""
-    limit: object = None
+    limit: Optional[Limit] = None
     """The :class:`~.frontier.Limit` at scheduled's blocking, with the scheduler's limits."""
-    gaps: dict = None
+    gaps: Optional[dict[str, tuple[float, ...]]] = None
     """Per strategy, (view-weighted hours it gives up against the limit with the
     scheduler's limits at its own blocking, the same against the limit without move
     limits) [h]."""
-    families: tuple = ()
+    families: tuple['FamilyMember', ...] = ()
     """:class:`FamilyMember` runs of the threshold family and the target rule's."""
-    frontier_free: tuple = ()
+    frontier_free: tuple[Point, ...] = ()
     """Supported points (:class:`~.frontier.Point`) of the limit without move limits."""
-    frontier_limited: tuple = ()
+    frontier_limited: tuple[Point, ...] = ()
     """Supported points of the limit with the scheduler's limits."""
 
-    def figures(self, name):
+    def figures(self, name: str) -> StrategyFigures:
         """Return the :class:`StrategyFigures` of strategy ``name``."""
         for strategy in self.strategies:
             if strategy.name == name:
                 return strategy
         raise KeyError(name)
 
-    def lines(self):
+    def lines(self) -> list[str]:
         """Return the summary as text lines, each figure named with its unit."""
         lines = [f'annual report: {self.facade_name} on {self.source}, local dates '
                  f'{self.first_date} to {self.last_date} ({self.range_days:.0f} days, '
@@ -232,7 +244,7 @@ class AnnualReport:
         lines.extend(self.legend())
         return lines
 
-    def limit_lines(self):
+    def limit_lines(self) -> list[str]:
         """Return the lines that say how exactly the limit is known and what it needed."""
         if self.limit is None:
             return []
@@ -244,7 +256,7 @@ class AnnualReport:
                 f' {limit.evaluations} values of view tried); its schedule would exceed the '
                 f'air bucket in {limit.air_bound_exceeded_steps} steps (relaxed)']
 
-    def family_lines(self):
+    def family_lines(self) -> list[str]:
         """Return a line per family: its best member at scheduled's blocking, dominance."""
         if not self.families:
             return []
@@ -267,7 +279,7 @@ class AnnualReport:
                 + ('dominating scheduled: ' + (', '.join(dominating) or 'none')))
         return lines
 
-    def legend(self):
+    def legend(self) -> list[str]:
         """Return the lines that explain each column of :meth:`lines`."""
         on, off = self.threshold_w_m2
         return [
@@ -291,9 +303,12 @@ class AnnualReport:
             "scheduler's limits at scheduled's blocking)"]
 
 
-def annual_report(facade, weather, first_date=None, last_date=None, step_min=60, table=None,
-                  gust_factor=1.0, threshold_on_w_m2=250.0, threshold_off_w_m2=150.0,
-                  progress=None, families=True):
+def annual_report(facade: 'Facade', weather: Weather, first_date: Optional[str] = None,
+                  last_date: Optional[str] = None, step_min: float = 60,
+                  table: Optional[ShadingTable] = None, gust_factor: float = 1.0,
+                  threshold_on_w_m2: float = 250.0, threshold_off_w_m2: float = 150.0,
+                  progress: Optional[Callable[[str], None]] = None,
+                  families: bool = True) -> AnnualReport:
     """Run ``facade`` through a weather file's dates under four strategies; see the module doc.
 
     Parameters
@@ -367,7 +382,7 @@ def annual_report(facade, weather, first_date=None, last_date=None, step_min=60,
                         blocked=blocked, daylight=position.above_horizon,
                         clear_dni_w_m2=clear, step_h=np.full(count, step_s / 3600.0))
     target_desired = _desired(facade, blocked, table.view, sunlit, step_s)
-    controllers = {
+    controllers: dict[str, tuple[Callable[[], _Desired], Optional[FloatArray]]] = {
         'predictive': (lambda: predictive_desired(facade, table, inputs, sampled['dni_w_m2'],
                                                   step_s, parameters), None),
         'target': (lambda: target_desired, sampled['dni_w_m2'])}
@@ -428,7 +443,7 @@ def annual_report(facade, weather, first_date=None, last_date=None, step_min=60,
 
 @dataclass(frozen=True)
 class _Context:
-    facade: object
+    facade: 'Facade'
     step_s: float
     epochs: np.ndarray
     middles: np.ndarray
@@ -455,7 +470,7 @@ class _Run:
     latched_s: float
 
 
-def _step_s(step_min):
+def _step_s(step_min: float) -> float:
     if isinstance(step_min, bool) or not isinstance(step_min, _NUMBERS):
         raise AnnualReportError(f'step must be a number of minutes, got {step_min!r}')
     if not math.isfinite(step_min) or step_min not in STEPS_MIN:
@@ -464,7 +479,7 @@ def _step_s(step_min):
     return float(step_min) * 60.0
 
 
-def _check_options(gust_factor, on, off):
+def _check_options(gust_factor: float, on: float, off: float) -> None:
     for name, value in (('gust_factor', gust_factor), ('threshold_on_w_m2', on),
                         ('threshold_off_w_m2', off)):
         if isinstance(value, bool) or not isinstance(value, _NUMBERS) \
@@ -477,7 +492,7 @@ def _check_options(gust_factor, on, off):
                                 f'off {off:g}')
 
 
-def _parse_date(text, what):
+def _parse_date(text: str, what: str) -> np.datetime64:
     match = _DATE.match(str(text).strip())
     if match is None:
         raise AnnualReportError(f'{what} date must be YYYY-MM-DD or MM-DD, got {text!r}')
@@ -488,7 +503,8 @@ def _parse_date(text, what):
                                 'of a weather file (no 29 February)') from None
 
 
-def _range(weather, first_date, last_date, step_s):
+def _range(weather: Weather, first_date: Optional[str], last_date: Optional[str],
+           step_s: float) -> tuple[np.datetime64, int, str, str]:
     """Start (UTC), step count and the local first and last dates of the range."""
     offset = np.timedelta64(int(round(weather.utc_offset_h * 60)), 'm')
     half = np.timedelta64(30, 'm')
@@ -515,7 +531,7 @@ def _range(weather, first_date, last_date, step_s):
     return start, count, str(first)[5:], str(last)[5:]
 
 
-def _check_table(table):
+def _check_table(table: ShadingTable) -> None:
     if not isinstance(table, ShadingTable):
         raise TypeError(f'table must be a ShadingTable, got {type(table).__name__}')
     if table.closures.shape != CANDIDATE_CLOSURES.shape or \
@@ -524,21 +540,23 @@ def _check_table(table):
                                 'report (0, 0.1, ..., 1)')
 
 
-def _per_panel_mean(values, weights):
+def _per_panel_mean(values: FloatArray, weights: FloatArray) -> FloatArray:
     """(T,) footprint-weighted mean over panels of (T, N) values."""
     return values @ weights
 
 
-def _local_months(middles, utc_offset_h):
+def _local_months(middles: npt.NDArray[np.datetime64], utc_offset_h: float) -> IntArray:
     local = into_reference_year(middles + np.timedelta64(int(round(utc_offset_h * 60)), 'm'))
     return (local.astype('datetime64[M]').astype(int) % 12).astype(np.intp)
 
 
-def _by_month(values, months):
-    return np.bincount(months, weights=values, minlength=12)
+def _by_month(values: FloatArray, months: IntArray) -> FloatArray:
+    # float with weights (the stubs say int)
+    return cast(FloatArray, np.bincount(months, weights=values, minlength=12))
 
 
-def _desired(facade, blocked, view, sunlit, step_s, target=None):
+def _desired(facade: 'Facade', blocked: FloatArray, view: FloatArray, sunlit: BoolArray,
+             step_s: float, target: Optional[float] = None) -> FloatArray:
     """(T, N) closures of the target rule, judged over the look-ahead window."""
     target = facade.control.get('shading_target', 0.9) if target is None else target
     window = int(round(facade.control.get('look_ahead_s', 0.0) / step_s))
@@ -556,7 +574,7 @@ def _desired(facade, blocked, view, sunlit, step_s, target=None):
     return CANDIDATE_CLOSURES[choice].reshape(steps, count)
 
 
-def _threshold_desired(direct, on_w_m2, off_w_m2):
+def _threshold_desired(direct: FloatArray, on_w_m2: float, off_w_m2: float) -> FloatArray:
     """(T, N) closures of the threshold rule: 0 (shade) above ``on``, 1 (view) below ``off``.
 
     Between the thresholds a panel keeps its last state; it starts in view.
@@ -569,7 +587,9 @@ def _threshold_desired(direct, on_w_m2, off_w_m2):
     return np.where(shading, 0.0, 1.0)
 
 
-def _run_scheduler(context, parameters, desired, dni, wind, report_share):
+def _run_scheduler(context: _Context, parameters: SchedulerParameters,
+                   desired: _Desired, dni: Optional[FloatArray], wind: FloatArray,
+                   report_share: Callable[[float], None]) -> _Run:
     """Step the scheduler through the range; follow moves and latch changes within a step."""
     facade, step_s = context.facade, context.step_s
     period_s = float(facade.control.get('period_s', 60.0))
@@ -624,10 +644,13 @@ class FamilyMember:
     figures: StrategyFigures
 
 
-def _families(context, problem, limits, parameters, wind, sampled, facade, blocked, table,
-              sunlit, direct, say):
+def _families(context: _Context, problem: ClosureProblem, limits: Limits,
+              parameters: SchedulerParameters, wind: FloatArray, sampled: Mapping[str, FloatArray],
+              facade: 'Facade', blocked: FloatArray, table: ShadingTable, sunlit: BoolArray,
+              direct: FloatArray, say: Callable[[str], None]) -> tuple[FamilyMember, ...]:
     members = []
-    runs = [('threshold', f'on {on:g} / off {on * ratio:g} W/m2',
+    runs: list[tuple[str, str, Callable[..., FloatArray], Optional[FloatArray]]] = [
+            ('threshold', f'on {on:g} / off {on * ratio:g} W/m2',
              lambda on=on, ratio=ratio: _threshold_desired(direct, on, on * ratio), None)
             for on in THRESHOLD_ON_W_M2 for ratio in THRESHOLD_OFF_RATIOS]
     runs += [('target rule', f'target {target:g}',
@@ -642,7 +665,7 @@ def _families(context, problem, limits, parameters, wind, sampled, facade, block
     return tuple(members)
 
 
-def _limit_run(problem, limits, schedule, scheduled):
+def _limit_run(problem: ClosureProblem, limits: Limits, schedule: Point, scheduled: _Run) -> _Run:
     """Make the limit's schedule a run: moves and air counted from its levels."""
     closure = problem.closures[schedule.levels]
     start = np.full((1, closure.shape[1]), problem.closures[limits.start_level])
@@ -652,7 +675,7 @@ def _limit_run(problem, limits, schedule, scheduled):
                 latched=scheduled.latched, latched_s=scheduled.latched_s)
 
 
-def _dominates(a, b):
+def _dominates(a: StrategyFigures, b: StrategyFigures) -> bool:
     """Return whether ``a`` is as good as ``b`` in blocking, view and moves, better in one."""
     at_least = (a.blocked_direct_kwh_m2 >= b.blocked_direct_kwh_m2
                 and a.view_weighted_hours_h >= b.view_weighted_hours_h
@@ -663,14 +686,15 @@ def _dominates(a, b):
     return at_least and better
 
 
-def _number(value, width, decimals):
+def _number(value: float, width: int, decimals: int) -> str:
     if value != value:
         return f'{"-":>{width}}'
     value = round(value, decimals) + 0.0  # no '-0'
     return f'{value:>{width}.{decimals}f}'
 
 
-def _next_call(scheduler, result, now, period_s):
+def _next_call(scheduler: Scheduler, result: ScheduleResult, now: float,
+               period_s: float) -> float:
     """Instant of the next call within a step: a move under way, or a latch change due."""
     candidates = [math.inf]
     if any(reason in _MOVING for reason in result.reason):
@@ -681,7 +705,7 @@ def _next_call(scheduler, result, now, period_s):
     return min(candidates)
 
 
-def _figures(context, name, run):
+def _figures(context: _Context, name: str, run: _Run) -> StrategyFigures:
     dt_h = context.step_s / 3600.0
     achieved = interpolate(context.blocked, run.closure)
     blocked = _per_panel_mean(context.direct * achieved * dt_h / 1000.0, context.weights)
@@ -703,7 +727,7 @@ def _figures(context, name, run):
         monthly_actuations_per_panel=_by_month(moves, context.months))
 
 
-def _diffuse_on_panels(facade, sampled):
+def _diffuse_on_panels(facade: 'Facade', sampled: Mapping[str, FloatArray]) -> FloatArray:
     """(T, N) isotropic sky diffuse and ground-reflected irradiance on each panel [W/m2].
 
     ``DHI (1 + cos beta) / 2 + albedo GHI (1 - cos beta) / 2``, ``beta`` the panel's tilt
@@ -715,7 +739,7 @@ def _diffuse_on_panels(facade, sampled):
             + GROUND_ALBEDO * sampled['ghi_w_m2'][:, None] * (1 - up) / 2)
 
 
-def plot(report, path):
+def plot(report: AnnualReport, path: PathLike) -> PathLike:
     """Write a PNG: the frontiers and the strategies; monthly blocked direct sun; moves.
 
     The first panel draws blocked direct energy against view-weighted hours: the limits,
@@ -764,7 +788,7 @@ def plot(report, path):
     return path
 
 
-def _plot_frontiers(report, axis, colours):
+def _plot_frontiers(report: AnnualReport, axis: 'Axes', colours: Mapping[str, str]) -> None:
     """Blocked direct energy against view-weighted hours: limits, families, strategies."""
     for points, style, label in (
             (report.frontier_free, 'k:', 'limit without move limits'),

@@ -40,20 +40,28 @@ daylight hours.
 from dataclasses import dataclass
 import math
 from types import SimpleNamespace
+from typing import Callable, cast, Optional, TYPE_CHECKING, Union
 
 import numpy as np
 
+from flectofold_model._validate import BoolArray, FloatArray, IntArray, PathLike
 from flectofold_model.environment import sun
 from flectofold_model.environment.clear_sky import clear_sky_dni
 from flectofold_model.facade.footprint import footprint_weights
-from flectofold_model.kinematics.kinds import fold_model_of
+from flectofold_model.kinematics.kinds import AnyFoldModel, fold_model_of
 from flectofold_model.scheduling.facade_schedule import full_close_air_nl, scheduler_parameters
-from flectofold_model.scheduling.frontier import ClosureProblem, frontier, limit_at, Limits
+from flectofold_model.scheduling.frontier import (ClosureProblem, frontier, Limit, limit_at,
+                                                  Limits, Point)
 from flectofold_model.scheduling.predictive import DEFAULT_CONTROLLER, PlanInputs
 from flectofold_model.scheduling.report_common import (limit_gaps, OTHER_ROW,
                                                        predictive_desired)
-from flectofold_model.scheduling.scheduler import Scheduler
+from flectofold_model.scheduling.scheduler import Scheduler, SchedulerParameters
 from flectofold_model.shading.ray_casting import blocked_fraction, choose_candidate, view_fraction
+
+if TYPE_CHECKING:  # the facade's and matplotlib's modules load when used
+    from matplotlib.axes import Axes
+
+    from flectofold_model.facade.description import Facade
 
 CANDIDATE_CLOSURES = np.linspace(0.0, 1.0, 11)
 
@@ -70,7 +78,7 @@ class Outcome:
     """Mean number of moves a panel started."""
     air_nl: float
     """Free air spent on closing moves [NL]."""
-    peak_fills: int
+    peak_fills: Optional[int]
     """Most panels filling at once; None for the limit, which relaxes the parallel fills."""
 
 
@@ -98,30 +106,30 @@ class DayReport:
     """The facade's controller, run as ``scheduled``."""
     other_name: str = ''
     """Row of the controller the facade does not run: 'target rule' or 'predictive'."""
-    other: Outcome = None
-    other_closure: np.ndarray = None
+    other: Optional[Outcome] = None
+    other_closure: Optional[np.ndarray] = None
     """(T, N) commanded closure of the other controller."""
-    limit: object = None
+    limit: Optional[Limit] = None
     """The :class:`~.frontier.Limit` at scheduled's blocking with the scheduler's limits;
     None when no schedule within them blocks as much (it should not happen)."""
-    limit_outcome: Outcome = None
+    limit_outcome: Optional[Outcome] = None
     """The ``limit`` row: its schedule's blocking, the limit's upper bound of view."""
     incident_direct_kwh_m2: float = math.nan
     """Direct sun on sunlit footprints, footprint-weighted mean over panels [kWh/m2]."""
     daylight_h: float = math.nan
     """Hours with the sun above the horizon."""
-    on_limit_axes: dict = None
+    on_limit_axes: Optional[dict[str, tuple[float, float]]] = None
     """Per row, (blocked direct fraction, view fraction) as the limit weighs them (see
     :func:`_problem_figures`): what the gaps and the PNG's frontier panel use."""
-    gaps: dict = None
+    gaps: Optional[dict[str, float]] = None
     """Per row but the limit, the view fraction it gives up against the limit with the
     scheduler's limits at its own blocking (NaN where no schedule within them blocks as
     much)."""
-    frontier_limited: tuple = ()
+    frontier_limited: tuple[Point, ...] = ()
     """Supported points (:class:`~.frontier.Point`) of the limit with the scheduler's
     limits."""
 
-    def rows(self):
+    def rows(self) -> list[tuple[str, Outcome]]:
         """Return (name, :class:`Outcome`) of every row, in the order printed."""
         rows = [('scheduled', self.scheduled)]
         if self.other is not None:
@@ -131,7 +139,8 @@ class DayReport:
             rows.append(('limit', self.limit_outcome))
         return rows
 
-    def fractions(self, blocked_direct_kwh_m2, view_weighted_h):
+    def fractions(self, blocked_direct_kwh_m2: float,
+                  view_weighted_h: float) -> tuple[float, float]:
         """Return (blocked direct fraction, view fraction) of figures as the limit weighs them.
 
         Blocked energy [kWh/m2] over the incident direct energy, view-weighted hours [h] over
@@ -140,7 +149,7 @@ class DayReport:
         return _fractions(blocked_direct_kwh_m2, view_weighted_h,
                           self.incident_direct_kwh_m2, self.daylight_h)
 
-    def lines(self):
+    def lines(self) -> list[str]:
         """Return the summary as text lines."""
         lines = [f'day report {self.date}: {self.closure.shape[1]} panels, '
                  f'{len(self.local_hours)} steps, sun up {np.sum(self.elevation_deg > 0)} steps'
@@ -161,7 +170,7 @@ class DayReport:
         lines.extend(self.limit_lines())
         return lines
 
-    def limit_lines(self):
+    def limit_lines(self) -> list[str]:
         """Return the lines that say what the limit is and how exactly it is known."""
         if self.limit is None:
             return ["limit: no schedule within the scheduler's limits blocks as much as "
@@ -180,7 +189,8 @@ class DayReport:
                 "them (footprint shares, the panels' mean view)"]
 
 
-def simulate_day(facade, date_iso, step_s=300.0, samples=24, progress=None):
+def simulate_day(facade: 'Facade', date_iso: str, step_s: float = 300.0, samples: int = 24,
+                 progress: Optional[Callable[[str], None]] = None) -> DayReport:
     """Run ``facade`` through the local day ``date_iso`` ('YYYY-MM-DD'); see the module doc.
 
     The facade's panels are all quad panels or all hexagonal ones; each is cast against its
@@ -294,14 +304,15 @@ class _Figures:
     view_weighted_hours_h: float
 
 
-def _fractions(blocked_direct_kwh_m2, view_weighted_h, incident_kwh_m2, daylight_h):
+def _fractions(blocked_direct_kwh_m2: float, view_weighted_h: float, incident_kwh_m2: float,
+               daylight_h: float) -> tuple[float, float]:
     """(blocked direct fraction, view fraction) of figures as the limit weighs them."""
     blocked = blocked_direct_kwh_m2 / incident_kwh_m2 if incident_kwh_m2 > 0 else math.nan
     view = view_weighted_h / daylight_h if daylight_h > 0 else math.nan
     return blocked, view
 
 
-def _problem_figures(problem, closure):
+def _problem_figures(problem: ClosureProblem, closure: FloatArray) -> _Figures:
     """Return the figures of closures (T, N) as the limit weighs them (:class:`_Figures`).
 
     Blocked direct [kWh/m2] and view-weighted hours [h], linear between candidates.
@@ -321,7 +332,8 @@ def _problem_figures(problem, closure):
     return _Figures(blocked_direct_kwh_m2=float(energy), view_weighted_hours_h=float(hours))
 
 
-def _blocked_table(fold, sun_panel, sunlit, samples):
+def _blocked_table(fold: AnyFoldModel, sun_panel: FloatArray, sunlit: BoolArray,
+                   samples: int) -> FloatArray:
     """(T, N, C) blocked fraction at every candidate closure, computed only where sunlit."""
     states = [fold.state_from_closure(c).shape_parameter for c in CANDIDATE_CLOSURES]
     table = np.zeros(sun_panel.shape[:2] + (CANDIDATE_CLOSURES.size,))
@@ -336,13 +348,14 @@ def _blocked_table(fold, sun_panel, sunlit, samples):
     return table
 
 
-def _view_table(fold, samples):
+def _view_table(fold: AnyFoldModel, samples: int) -> FloatArray:
     return np.stack([view_fraction(fold.batch, fold.state_from_closure(c).shape_parameter,
                                    samples=samples)
                      for c in CANDIDATE_CLOSURES], axis=-1)
 
 
-def _desired(blocked, view, sunlit, target, window):
+def _desired(blocked: FloatArray, view: FloatArray, sunlit: BoolArray, target: float,
+             window: int) -> FloatArray:
     """Pick the (T, N) desired closures by the shading rule over look-ahead windows.
 
     Each candidate is judged by its worst blocked fraction over the window's sunlit instants.
@@ -353,14 +366,16 @@ def _desired(blocked, view, sunlit, target, window):
         span = slice(t, min(steps, t + window + 1))
         lit = sunlit[span]
         worst = np.where(lit[..., None], blocked[span], np.inf).min(axis=0)
-        any_lit = lit.any(axis=0)
+        any_lit = cast(BoolArray, lit.any(axis=0))  # (N,): lit is (W, N)
         worst = np.where(any_lit[:, None], worst, 0.0)
         choice = choose_candidate(CANDIDATE_CLOSURES, worst, view, any_lit, target)
         desired[t] = CANDIDATE_CLOSURES[choice]
     return desired
 
 
-def _schedule(facade, parameters, epochs, desired, dni):
+def _schedule(facade: 'Facade', parameters: SchedulerParameters, epochs: FloatArray,
+              desired: Union[FloatArray, Callable[[int, FloatArray], FloatArray]],
+              dni: Optional[FloatArray]) -> tuple[FloatArray, BoolArray, FloatArray]:
     """Step the scheduler once at each instant of the day.
 
     ``desired``: (T, N) desired closures, or a callable ``desired(i, commanded_closure)``
@@ -380,7 +395,7 @@ def _schedule(facade, parameters, epochs, desired, dni):
     return np.array(closure), np.array(filling), np.array(air)
 
 
-def interpolate(table, closure):
+def interpolate(table: FloatArray, closure: FloatArray) -> FloatArray:
     """Values of a (T, N, C) table at closures (T, N), linear between candidates."""
     position = closure / (CANDIDATE_CLOSURES[1] - CANDIDATE_CLOSURES[0])
     lower = np.clip(np.floor(position).astype(int), 0, CANDIDATE_CLOSURES.size - 2)
@@ -390,19 +405,19 @@ def interpolate(table, closure):
     return below + fraction * (above - below)
 
 
-def _weighted(values, weight):
+def _weighted(values: FloatArray, weight: FloatArray) -> float:
     total = np.sum(weight)
     return float(np.sum(values * weight) / total) if total > 0 else math.nan
 
 
-def _moves(closure):
+def _moves(closure: FloatArray) -> IntArray:
     """Count the moves each panel started: a change after a still step (or at the start)."""
     changing = np.abs(np.diff(closure, axis=0)) > 1e-9
     still_before = np.vstack([np.ones((1, closure.shape[1]), bool), ~changing[:-1]])
     return np.sum(changing & still_before, axis=0)
 
 
-def _number(value, width, decimals):
+def _number(value: float, width: int, decimals: int) -> str:
     return f'{"-":>{width}}' if value != value else f'{value:>{width}.{decimals}f}'
 
 
@@ -411,7 +426,7 @@ COLOURS = {'scheduled': 'tab:green', 'target rule': 'tab:blue', 'predictive': 't
            'always open': 'tab:gray', 'always closed': 'tab:purple', 'limit': 'black'}
 
 
-def plot(report, path):
+def plot(report: DayReport, path: PathLike) -> PathLike:
     """Write the day as a PNG: sun, closure, blocked direct sun, and the rows against the limit.
 
     The last panel draws the frontier of view against blocked direct sun (the limit with the
@@ -463,7 +478,7 @@ def plot(report, path):
     return path
 
 
-def _plot_frontier(axes, report):
+def _plot_frontier(axes: 'Axes', report: DayReport) -> None:
     """Draw the limit's frontier and the rows as points: view against blocked direct sun."""
     if report.frontier_limited:
         line = np.array([report.fractions(p.blocked_direct_kwh_m2, p.view_weighted_h)

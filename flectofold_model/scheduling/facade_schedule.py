@@ -20,30 +20,36 @@ also owns the coordinator's account of the storm latch (:class:`~.storm.StormEve
 
 from dataclasses import fields
 import math
+from typing import cast, Optional, TYPE_CHECKING
 
 import numpy as np
+import numpy.typing as npt
 
+from flectofold_model._validate import FloatArray
 from flectofold_model.actuation import (actuated_like, actuation_model_of,
                                         ATMOSPHERIC_PRESSURE_PA, DEMONSTRATOR_PLANT)
 from flectofold_model.environment.clear_sky import ClearSkyDni
 from flectofold_model.environment.ephemeris import SunEphemeris
 from flectofold_model.facade.footprint import representative_panel
-from flectofold_model.scheduling.predictive import (DEFAULT_CONTROLLER, plan_inputs,
+from flectofold_model.scheduling.predictive import (DEFAULT_CONTROLLER, plan_inputs, PlanInputs,
                                                     PredictiveController,
                                                     PredictiveParameters)
-from flectofold_model.scheduling.scheduler import Scheduler, SchedulerParameters
+from flectofold_model.scheduling.scheduler import Scheduler, ScheduleResult, SchedulerParameters
 from flectofold_model.scheduling.storm import StormEvents
 from flectofold_model.shading.table import ShadingTable
 from flectofold_model.structure.facade_map import structural_close_air_nl
 
+if TYPE_CHECKING:  # the facade's module loads when used
+    from flectofold_model.facade.description import Facade
 
-def scheduler_parameters(facade):
+
+def scheduler_parameters(facade: 'Facade') -> SchedulerParameters:
     """Build the :class:`SchedulerParameters` named in a facade's ``control`` section."""
     names = {f.name for f in fields(SchedulerParameters)}
     return SchedulerParameters(**{k: v for k, v in facade.control.items() if k in names})
 
 
-def full_close_air_nl(facade):
+def full_close_air_nl(facade: 'Facade') -> FloatArray:
     """Free air [NL] that closes each panel from open, actuated like its kind's preset.
 
     ``(p_closed V_closed - p_atm V_open) / p_atm`` with absolute pressures and the tubing's dead
@@ -61,7 +67,7 @@ def full_close_air_nl(facade):
     return (closed - opened) / ATMOSPHERIC_PRESSURE_PA * 1e3
 
 
-def look_ahead_steps(period_s, look_ahead_s):
+def look_ahead_steps(period_s: float, look_ahead_s: float) -> int:
     """Return the number of decision periods a look-ahead window reaches past now.
 
     ``floor(look_ahead_s / period_s)``, with 1e-9 of slack so that a window of a whole number
@@ -81,7 +87,7 @@ def look_ahead_steps(period_s, look_ahead_s):
     return max(0, math.floor(look_ahead_s / period_s + 1e-9))
 
 
-def look_ahead_times(now_s, period_s, look_ahead_s):
+def look_ahead_times(now_s: float, period_s: float, look_ahead_s: float) -> list[float]:
     """Return the instants after ``now_s`` of a look-ahead window on the decision grid.
 
     The grid is the multiples of ``period_s`` in UTC Unix time; the window takes the
@@ -122,7 +128,8 @@ class FacadeSchedule:
         A wind sample counts until the next one but at most this long [s], ``> 0``.
     """
 
-    def __init__(self, facade, start_s=0.0, table=None, wind_timeout_s=60.0):
+    def __init__(self, facade: 'Facade', start_s: float = 0.0,
+                 table: Optional[ShadingTable] = None, wind_timeout_s: float = 60.0) -> None:
         self.facade = facade
         self.period_s = float(facade.control.get('period_s', 60.0))
         """Decision period [s]: the step of the look-ahead grid."""
@@ -142,7 +149,7 @@ class FacadeSchedule:
         self.controller = facade.control.get('controller', DEFAULT_CONTROLLER)
         """'predictive' (the receding-horizon plan) or 'target' (the target rule)."""
         self._grid_ephemeris = SunEphemeris(facade.site, self.period_s)
-        self.predictive = None
+        self.predictive: Optional[PredictiveController] = None
         if self.controller == 'predictive':
             settings = PredictiveParameters.of(facade.control)
             self.predictive = PredictiveController(self.table.closures, self.table.view,
@@ -151,13 +158,13 @@ class FacadeSchedule:
             self._ephemeris = SunEphemeris(facade.site, settings.plan_step_s)
             self._clear_sky = ClearSkyDni(facade.site, settings.plan_step_s)
 
-    def desired_closure(self, sun_enu):
+    def desired_closure(self, sun_enu: npt.ArrayLike) -> FloatArray:
         """Desired closure (N,) for a sun vector (3,) or a look-ahead window (W, 3) in ENU."""
         sun = _checked_sun(sun_enu)
         in_panels = self.facade.sun_in_panel_frames(sun)
         return self.table.choose(in_panels, self.shading_target)
 
-    def sun_window(self, now_s, sun_enu):
+    def sun_window(self, now_s: float, sun_enu: npt.ArrayLike) -> npt.ArrayLike:
         """Return the sun the target rule judges at ``now_s`` [s, UTC Unix time].
 
         The sun now ``sun_enu`` (3,) in ENU, followed by the ephemeris at the
@@ -170,13 +177,14 @@ class FacadeSchedule:
         times = look_ahead_times(now_s, self.period_s, self.look_ahead_s)
         return np.vstack([now, self._grid_ephemeris.enu(times)]) if times else now
 
-    def plan_inputs(self, now_s, sun_enu):
+    def plan_inputs(self, now_s: float, sun_enu: npt.ArrayLike) -> PlanInputs:
         """Return the predictive controller's view of the horizon from ``now_s``.
 
         ``now_s`` [s, UTC Unix time]; the sun now (3,) ENU, then the ephemeris on the plan
         grid (multiples of ``plan_step_s``) up to ``horizon_s``.
         """
-        settings = self.predictive.parameters
+        # called only with the predictive controller
+        settings = cast(PredictiveController, self.predictive).parameters
         step_s = settings.plan_step_s
         first = math.floor(now_s / step_s) + 1
         times = [(first + j) * step_s for j in range(settings.steps(step_s) - 1)]
@@ -187,7 +195,9 @@ class FacadeSchedule:
         clear = self._clear_sky.at(np.array([now_s] + times, dtype=float))
         return plan_inputs(self.facade, self.table, sun, clear, steps)
 
-    def step(self, now_s, sun_enu, dni_w_m2=None, wind_m_s=None, faulted=None):
+    def step(self, now_s: float, sun_enu: Optional[npt.ArrayLike],
+             dni_w_m2: Optional[float] = None, wind_m_s: Optional[float] = None,
+             faulted: Optional[npt.ArrayLike] = None) -> ScheduleResult:
         """Commanded closures for this period, with the reasons (see :class:`ScheduleResult`).
 
         ``sun_enu`` None (no sun known): each panel's desired closure is its commanded one,
@@ -214,7 +224,7 @@ class FacadeSchedule:
         return result
 
 
-def _checked_sun(sun_enu):
+def _checked_sun(sun_enu: npt.ArrayLike) -> FloatArray:
     sun = np.asarray(sun_enu, dtype=float)
     if sun.shape[-1:] != (3,) or sun.ndim not in (1, 2) or not np.all(np.isfinite(sun)):
         raise ValueError(f'sun_enu must be finite, of shape (3,) or (W, 3), got {sun.shape}')

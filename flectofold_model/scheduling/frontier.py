@@ -52,9 +52,12 @@ References
 
 from dataclasses import dataclass
 import math
+from typing import Optional, overload, Self, Sequence
 
 import numpy as np
+import numpy.typing as npt
 
+from flectofold_model._validate import FloatArray, IntArray
 from flectofold_model.scheduling.objective import Stage, SunAndView
 from flectofold_model.scheduling.paths import greedy_paths, limited_paths, within_limits
 from flectofold_model.scheduling.scheduler import SchedulerParameters, SECONDS_PER_DAY
@@ -86,13 +89,13 @@ class ClosureProblem:
     air_nl: np.ndarray
     """(N,) free air of a full close of each panel [NL]."""
 
-    def stage(self):
+    def stage(self) -> Stage:
         """Return the whole range as a :class:`~.objective.Stage`."""
         return Stage(direct_w_m2=self.direct_w_m2, blocked=self.blocked, view=self.view,
                      daylight=self.daylight,
                      step_h=np.full(self.daylight.shape, self.step_s / 3600.0))
 
-    def per_panel(self, levels):
+    def per_panel(self, levels: IntArray) -> tuple[FloatArray, FloatArray]:
         """Return (N,) blocked direct [Wh/m2] and (N,) view-weighted hours of paths (T, N).
 
         Each is weighted by the panel's footprint share: they sum to the facade's figures.
@@ -123,7 +126,8 @@ class Limits:
     """A full air bucket plus one step's refill [NL]: what one step can draw at most."""
 
     @classmethod
-    def of(cls, problem, parameters, latched):
+    def of(cls, problem: ClosureProblem, parameters: SchedulerParameters,
+           latched: npt.ArrayLike) -> Self:
         """Make the limits of ``parameters`` on ``problem``'s grid, storm steps ``latched``."""
         if not isinstance(parameters, SchedulerParameters):
             raise TypeError(f'parameters must be SchedulerParameters, got '
@@ -177,12 +181,13 @@ class Limit:
     (the relaxed shared limit; 0 when the limits are not applied)."""
 
     @property
-    def width_h(self):
+    def width_h(self) -> float:
         """Width of the bracket [h]: how exactly the limit is known."""
         return self.view_weighted_upper_h - self.view_weighted_lower_h
 
 
-def best_schedule(problem, view_value_w_m2, limits=None):
+def best_schedule(problem: ClosureProblem, view_value_w_m2: float,
+                  limits: Optional[Limits] = None) -> Point:
     """Return the schedule that maximises blocked sun plus ``view_value_w_m2`` times view.
 
     ``limits`` None: case (a), every panel and step alone; a :class:`Limits`: case (b).
@@ -218,8 +223,8 @@ def best_schedule(problem, view_value_w_m2, limits=None):
                  view_weighted_h=float(view.sum()), levels=levels)
 
 
-def frontier(problem, limits=None, tolerance_h=0.05, tolerance_kwh_m2=0.01,
-             max_evaluations=120):
+def frontier(problem: ClosureProblem, limits: Optional[Limits] = None, tolerance_h: float = 0.05,
+             tolerance_kwh_m2: float = 0.01, max_evaluations: int = 120) -> list[Point]:
     """Supported points of the frontier, by blocking (decreasing) (list of :class:`Point`).
 
     The dichotomic method: from the most blocking and the most view schedules, each segment
@@ -251,7 +256,7 @@ def frontier(problem, limits=None, tolerance_h=0.05, tolerance_kwh_m2=0.01,
             points.append(point)
             segments += [(view_end, point), (point, blocking_end)]
     points.sort(key=lambda p: (-p.blocked_direct_kwh_m2, p.view_weighted_h))
-    kept = []
+    kept: list[Point] = []
     for point in points:
         if kept and point.view_weighted_h <= kept[-1].view_weighted_h + 1e-12:
             continue
@@ -259,7 +264,7 @@ def frontier(problem, limits=None, tolerance_h=0.05, tolerance_kwh_m2=0.01,
     return kept
 
 
-def view_on_frontier(points, blocked_direct_kwh_m2):
+def view_on_frontier(points: Sequence[Point], blocked_direct_kwh_m2: npt.ArrayLike) -> FloatArray:
     """Return the view [h] of the frontier through ``points`` at a blocking [kWh/m2].
 
     Straight lines between the points; NaN beyond the most blocking point.
@@ -271,8 +276,9 @@ def view_on_frontier(points, blocked_direct_kwh_m2):
                     np.interp(target, blocked, view, left=view[0]))
 
 
-def limit_at(problem, blocked_direct_kwh_m2, limits=None, tolerance_h=None,
-             max_evaluations=40):
+def limit_at(problem: ClosureProblem, blocked_direct_kwh_m2: float,
+             limits: Optional[Limits] = None, tolerance_h: Optional[float] = None,
+             max_evaluations: int = 40) -> Limit:
     """Return the limit of view at a blocking [kWh/m2], bracketed (:class:`Limit`).
 
     Bisects the value of view on a log scale until the bracket is narrower than
@@ -313,12 +319,25 @@ def limit_at(problem, blocked_direct_kwh_m2, limits=None, tolerance_h=None,
     return _limit(problem, target_wh, feasible, infeasible, upper, evaluations, limits)
 
 
-def point_blocked(problem, limits):
+def point_blocked(problem: ClosureProblem, limits: Optional[Limits]) -> float:
     """Most direct sun any schedule within ``limits`` blocks [kWh/m2]."""
     return best_schedule(problem, 0.0, limits).blocked_direct_kwh_m2
 
 
-def _bracket(point, target_wh, feasible, infeasible, upper):
+@overload
+def _bracket(point: Point, target_wh: float, feasible: Point, infeasible: Point,
+             upper: float) -> tuple[Point, Point, float]: ...
+
+
+@overload
+def _bracket(point: Point, target_wh: float, feasible: Optional[Point],
+             infeasible: Optional[Point],
+             upper: float) -> tuple[Optional[Point], Optional[Point], float]: ...
+
+
+def _bracket(point: Point, target_wh: float, feasible: Optional[Point],
+             infeasible: Optional[Point],
+             upper: float) -> tuple[Optional[Point], Optional[Point], float]:
     value = point.view_value_w_m2
     blocked_wh = point.blocked_direct_kwh_m2 * 1000.0
     lagrangian = blocked_wh + value * point.view_weighted_h
@@ -331,7 +350,7 @@ def _bracket(point, target_wh, feasible, infeasible, upper):
     return feasible, infeasible, upper
 
 
-def _mix(problem, feasible, infeasible, target_wh):
+def _mix(problem: ClosureProblem, feasible: Point, infeasible: Point, target_wh: float) -> Point:
     """Make a feasible schedule: ``feasible``'s, panels taken from ``infeasible`` greedily."""
     blocked_f, view_f = problem.per_panel(feasible.levels)
     blocked_i, view_i = problem.per_panel(infeasible.levels)
@@ -352,7 +371,8 @@ def _mix(problem, feasible, infeasible, target_wh):
                  view_weighted_h=float(view.sum()), levels=levels)
 
 
-def _limit(problem, target_wh, feasible, infeasible, upper, evaluations, limits):
+def _limit(problem: ClosureProblem, target_wh: float, feasible: Point, infeasible: Point,
+           upper: float, evaluations: int, limits: Optional[Limits]) -> Limit:
     schedule = _mix(problem, feasible, infeasible, target_wh)
     return Limit(blocked_direct_kwh_m2=target_wh / 1000.0,
                  view_weighted_upper_h=max(float(upper), schedule.view_weighted_h),
@@ -362,12 +382,12 @@ def _limit(problem, target_wh, feasible, infeasible, upper, evaluations, limits)
                      problem, schedule, limits))
 
 
-def _air_exceeded(problem, schedule, limits):
+def _air_exceeded(problem: ClosureProblem, schedule: Point, limits: Limits) -> int:
     closure = problem.closures[schedule.levels]
     start = np.full((1, closure.shape[1]), problem.closures[limits.start_level])
     gained = np.maximum(np.diff(np.vstack([start, closure]), axis=0), 0.0) @ problem.air_nl
     return int(np.sum(gained > limits.air_room_nl + 1e-9))
 
 
-def _nearest(closures, value):
+def _nearest(closures: npt.ArrayLike, value: float) -> int:
     return int(np.argmin(np.abs(np.asarray(closures) - value)))

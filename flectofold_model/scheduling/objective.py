@@ -27,10 +27,12 @@ References
 """
 
 from dataclasses import dataclass
+from typing import Optional, Protocol
 
 import numpy as np
+import numpy.typing as npt
 
-from flectofold_model._validate import real_scalar
+from flectofold_model._validate import FloatArray, real_scalar
 
 
 @dataclass(frozen=True)
@@ -49,6 +51,16 @@ class Stage:
     """(T,) length of each step [h]."""
 
 
+class Objective(Protocol):
+    """What a planner asks of an objective (see the module doc)."""
+
+    unit: str
+
+    def rewards(self, stage: Stage) -> FloatArray:
+        """(T, N, K) rewards of holding each candidate over each step, in :attr:`unit`."""
+        ...
+
+
 class SunAndView:
     """Blocked direct sun plus ``view_value_w_m2`` times the view, per step [Wh/m2].
 
@@ -60,20 +72,20 @@ class SunAndView:
 
     unit = 'Wh/m2'
 
-    def __init__(self, view_value_w_m2):
+    def __init__(self, view_value_w_m2: float) -> None:
         self.view_value_w_m2 = real_scalar('view_value_w_m2', view_value_w_m2)
         if self.view_value_w_m2 < 0.0:
             raise ValueError(f'view_value_w_m2 must not be negative, got '
                              f'{self.view_value_w_m2:g} W/m2')
 
-    def rewards(self, stage):
+    def rewards(self, stage: Stage) -> FloatArray:
         """(T, N, K) rewards of holding each candidate over each step [Wh/m2]."""
         step_h = np.asarray(stage.step_h, dtype=float)[:, None, None]
         view = (self.view_value_w_m2 * np.asarray(stage.view)[None, None, :]
                 * np.asarray(stage.daylight)[:, None, None])
         return step_h * (stage.direct_w_m2[..., None] * stage.blocked + view)
 
-    def __repr__(self):
+    def __repr__(self) -> str:
         return f'SunAndView(view_value_w_m2={self.view_value_w_m2:g})'
 
 
@@ -107,8 +119,9 @@ class RoomAware:
 
     unit = 'Wh/m2'
 
-    def __init__(self, view_value_w_m2, diffuse_transmittance, heating_value=0.5,
-                 neutral_value=0.5, daylight_value_w_m2=0.0, glare_value_w_m2=0.0):
+    def __init__(self, view_value_w_m2: float, diffuse_transmittance: npt.ArrayLike,
+                 heating_value: float = 0.5, neutral_value: float = 0.5,
+                 daylight_value_w_m2: float = 0.0, glare_value_w_m2: float = 0.0) -> None:
         self.view = SunAndView(view_value_w_m2)
         self.diffuse_transmittance = np.asarray(diffuse_transmittance, dtype=float)
         for name, value in (('heating_value', heating_value),
@@ -126,7 +139,9 @@ class RoomAware:
         self.diffuse_w_m2 = 0.0
         self.room_light = np.zeros_like(self.diffuse_transmittance)
 
-    def observe(self, cooling_w, heating_w, diffuse_w_m2, daylit=None, glare=None):
+    def observe(self, cooling_w: float, heating_w: float, diffuse_w_m2: float,
+                daylit: Optional[npt.ArrayLike] = None,
+                glare: Optional[npt.ArrayLike] = None) -> None:
         """Take the room's state of the last step.
 
         ``cooling_w``, ``heating_w`` its sensible cooling and heating rates [W];
@@ -148,7 +163,7 @@ class RoomAware:
                 light = light + sign * price * value
         self.room_light = light
 
-    def rewards(self, stage):
+    def rewards(self, stage: Stage) -> FloatArray:
         """(T, N, K) rewards of holding each candidate over each step [Wh/m2]."""
         step_h = np.asarray(stage.step_h, dtype=float)[:, None, None]
         gain = stage.direct_w_m2[..., None] * stage.blocked \

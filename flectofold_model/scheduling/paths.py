@@ -31,12 +31,16 @@ References
 """
 
 import numpy as np
+import numpy.typing as npt
 
 from flectofold_model._compiled import kernel
+from flectofold_model._validate import BoolArray, FloatArray, IntArray
 
 
 @kernel
-def limited_paths(rewards, allowed, all_moves, new_day, forced, start, cap, dwell):
+def limited_paths(rewards: FloatArray, allowed: BoolArray, all_moves: bool, new_day: BoolArray,
+                  forced: IntArray, start: IntArray, cap: int,
+                  dwell: int) -> tuple[npt.NDArray[np.int8], FloatArray]:
     """Best level path (T, N) and its total reward (N,) of every panel; see the module doc.
 
     ``rewards`` (T, N, K) float; ``allowed`` (K, K) bool, moves other than storm ones;
@@ -161,7 +165,9 @@ def limited_paths(rewards, allowed, all_moves, new_day, forced, start, cap, dwel
 
 
 @kernel
-def first_levels(rewards, closures, start, move_cost, air_price, deadband):
+def first_levels(rewards: FloatArray, closures: FloatArray, start: FloatArray,
+                 move_cost: FloatArray, air_price: FloatArray,
+                 deadband: float) -> npt.NDArray[np.int64]:
     """First level (N,) of each panel's best plan over the horizon; see the module doc.
 
     ``rewards`` (H, N, K); ``closures`` (K,) the levels' closures; ``start`` (N,) each
@@ -209,7 +215,8 @@ def first_levels(rewards, closures, start, move_cost, air_price, deadband):
 
 
 @kernel
-def greedy_paths(rewards, forced, start):
+def greedy_paths(rewards: FloatArray, forced: IntArray,
+                 start: IntArray) -> npt.NDArray[np.int8]:
     """Return the best level of each step alone (T, N); the storm's where ``forced``.
 
     Ties keep the level held before: the path of :func:`limited_paths` without move limits.
@@ -232,7 +239,8 @@ def greedy_paths(rewards, forced, start):
 
 
 @kernel
-def within_limits(paths, allowed, new_day, forced, start, cap, dwell):
+def within_limits(paths: IntArray, allowed: BoolArray, new_day: BoolArray, forced: IntArray,
+                  start: IntArray, cap: int, dwell: int) -> BoolArray:
     """(N,) bool: each panel's path keeps the limits of :func:`limited_paths`."""
     steps, count = paths.shape
     keeps = np.ones(count, np.bool_)

@@ -37,13 +37,30 @@ References
 
 from dataclasses import dataclass, fields
 import math
+from typing import Any, Mapping, Optional, Protocol, Self, TYPE_CHECKING
 
 import numpy as np
+import numpy.typing as npt
 
-from flectofold_model._validate import real_array, real_scalar
-from flectofold_model.scheduling.objective import Stage, SunAndView
+from flectofold_model._validate import FloatArray, real_array, real_scalar
+from flectofold_model.scheduling.objective import Objective, Stage, SunAndView
 from flectofold_model.scheduling.paths import first_levels
 from flectofold_model.shading.ray_casting import SUNLIT_MIN_SZ
+
+if TYPE_CHECKING:  # the table's module loads when used
+    from flectofold_model.shading.table import ShadingTable
+
+
+class PanelFrames(Protocol):
+    """What the plan reads of a facade (:class:`~flectofold_model.facade.Facade`).
+
+    A protocol, not the class: the facade's description imports this module to check its
+    ``control`` section.
+    """
+
+    def sun_in_panel_frames(self, sun_enu: npt.ArrayLike) -> FloatArray:
+        """Sun directions (..., 3) in ENU expressed in every panel frame: (..., N, 3)."""
+
 
 #: The strategies the coordinator can run: ``control.controller`` of a facade.
 CONTROLLERS = ('predictive', 'target')
@@ -75,7 +92,7 @@ class PredictiveParameters:
     clear_sky_min_w_m2: float = 50.0
     """The clear-sky index is measured only while the clear-sky DNI reaches this [W/m2]."""
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         for field in fields(self):
             value = real_scalar(field.name, getattr(self, field.name))
             if value < 0.0:
@@ -92,12 +109,12 @@ class PredictiveParameters:
                              f'{self.plan_step_s:g} s')
 
     @classmethod
-    def of(cls, control):
+    def of(cls, control: Mapping[str, Any]) -> Self:
         """Make the parameters named in a facade's ``control`` section (others ignored)."""
         names = {f.name for f in fields(cls)}
         return cls(**{k: v for k, v in control.items() if k in names})
 
-    def steps(self, step_s):
+    def steps(self, step_s: float) -> int:
         """Return the steps of ``step_s`` in the horizon, at least 1."""
         return max(1, int(math.floor(self.horizon_s / step_s + 1e-9)))
 
@@ -118,7 +135,8 @@ class PlanInputs:
     """(H,) length of each step [h]."""
 
 
-def plan_inputs(facade, table, sun_enu, clear_dni_w_m2, step_s):
+def plan_inputs(facade: PanelFrames, table: 'ShadingTable', sun_enu: npt.ArrayLike,
+                clear_dni_w_m2: npt.ArrayLike, step_s: npt.ArrayLike) -> PlanInputs:
     """:class:`PlanInputs` from the sun vectors (H, 3) in ENU of the steps ahead.
 
     ``step_s`` scalar or (H,) [s]; the blocked fractions come from ``table``, as the
@@ -156,8 +174,9 @@ class PredictiveController:
         ``SunAndView(parameters.view_value_w_m2)``. Its unit is the unit of the prices.
     """
 
-    def __init__(self, closures, view, air_nl, parameters=PredictiveParameters(),
-                 deadband=0.0, objective=None):
+    def __init__(self, closures: npt.ArrayLike, view: npt.ArrayLike, air_nl: npt.ArrayLike,
+                 parameters: PredictiveParameters = PredictiveParameters(),
+                 deadband: float = 0.0, objective: Optional[Objective] = None) -> None:
         if not isinstance(parameters, PredictiveParameters):
             raise TypeError(f'parameters must be PredictiveParameters, got '
                             f'{type(parameters).__name__}')
@@ -176,7 +195,7 @@ class PredictiveController:
         self.clear_sky_index = 1.0
         """The persisted clear-sky index: 1 until a first measurement."""
 
-    def observe(self, dni_w_m2, clear_dni_w_m2):
+    def observe(self, dni_w_m2: float, clear_dni_w_m2: float) -> None:
         """Take a DNI measurement [W/m2] and the clear-sky DNI at its instant [W/m2]."""
         dni = real_scalar('dni_w_m2', dni_w_m2)
         clear = real_scalar('clear_dni_w_m2', clear_dni_w_m2)
@@ -184,7 +203,7 @@ class PredictiveController:
             low, high = CLEAR_SKY_INDEX_RANGE
             self.clear_sky_index = min(max(dni / clear, low), high)
 
-    def forecast_dni(self, inputs, dni_now_w_m2=None):
+    def forecast_dni(self, inputs: PlanInputs, dni_now_w_m2: Optional[float] = None) -> FloatArray:
         """Return the DNI (H,) of the steps ahead [W/m2].
 
         The measurement now, then the persisted clear-sky index times the clear-sky DNI.
@@ -195,7 +214,8 @@ class PredictiveController:
             dni[0] = dni_now_w_m2
         return dni
 
-    def desired(self, closure_now, inputs, dni_now_w_m2=None):
+    def desired(self, closure_now: npt.ArrayLike, inputs: PlanInputs,
+                dni_now_w_m2: Optional[float] = None) -> FloatArray:
         """Desired closure (N,) of each panel: the first step of its best plan.
 
         ``closure_now`` (N,) the commanded closures now; ``inputs`` a :class:`PlanInputs`;

@@ -7,17 +7,45 @@ gap to the limit (:func:`limit_gaps`).
 """
 
 import math
+from typing import Callable, Protocol, TYPE_CHECKING
 
+from flectofold_model._validate import FloatArray
 from flectofold_model.scheduling.facade_schedule import full_close_air_nl
-from flectofold_model.scheduling.frontier import limit_at
+from flectofold_model.scheduling.frontier import ClosureProblem, limit_at, Limits
 from flectofold_model.scheduling.predictive import (PlanInputs, PredictiveController,
                                                     PredictiveParameters)
+from flectofold_model.scheduling.scheduler import SchedulerParameters
+
+if TYPE_CHECKING:  # the facade's module loads when used
+    from flectofold_model.facade.description import Facade
 
 #: The row of the controller the facade does not run, beside ``scheduled``.
 OTHER_ROW = {'predictive': 'predictive', 'target': 'target rule'}
 
 
-def predictive_desired(facade, table, inputs, dni, step_s, parameters):
+class Candidates(Protocol):
+    """The candidate closures (K,) and their view fractions (K,): a shading table's."""
+
+    @property
+    def closures(self) -> FloatArray: ...
+
+    @property
+    def view(self) -> FloatArray: ...
+
+
+class RowFigures(Protocol):
+    """A row's blocked direct sun [kWh/m2] and view-weighted hours [h]."""
+
+    @property
+    def blocked_direct_kwh_m2(self) -> float: ...
+
+    @property
+    def view_weighted_hours_h(self) -> float: ...
+
+
+def predictive_desired(facade: 'Facade', table: Candidates, inputs: PlanInputs, dni: FloatArray,
+                       step_s: float, parameters: SchedulerParameters
+                       ) -> Callable[[int, FloatArray], FloatArray]:
     """Make the predictive controller's decisions, one per step, from what is known then.
 
     The step's own DNI is the measurement (as the threshold rule and the target rule's DNI
@@ -28,7 +56,7 @@ def predictive_desired(facade, table, inputs, dni, step_s, parameters):
                                       settings, deadband=parameters.deadband)
     horizon = settings.steps(step_s)
 
-    def desired(i, closure_now):
+    def desired(i: int, closure_now: FloatArray) -> FloatArray:
         ahead = slice(i, i + horizon)
         window = PlanInputs(cos_incidence=inputs.cos_incidence[ahead],
                             blocked=inputs.blocked[ahead], daylight=inputs.daylight[ahead],
@@ -38,7 +66,8 @@ def predictive_desired(facade, table, inputs, dni, step_s, parameters):
     return desired
 
 
-def limit_gaps(problem, limits, figures):
+def limit_gaps(problem: ClosureProblem, limits: Limits,
+               figures: RowFigures) -> tuple[float, ...]:
     """Return the gaps [h] with and without the scheduler's limits at ``figures``'s blocking.
 
     NaN where no schedule within them blocks as much.

@@ -11,16 +11,23 @@ and the bringup do.
 """
 
 import math
+from typing import Any, cast, Optional, TYPE_CHECKING
 
 import numpy as np
+import numpy.typing as npt
 
-from flectofold_model._validate import real_scalar
+from flectofold_model._validate import FloatArray, real_scalar
 from flectofold_model.environment.clear_sky import clear_sky_dni
 from flectofold_model.environment.sun import solar_position
 from flectofold_model.scheduling.facade_schedule import FacadeSchedule, look_ahead_steps
+from flectofold_model.scheduling.scheduler import ScheduleResult
+from flectofold_model.shading.table import ShadingTable
+
+if TYPE_CHECKING:  # the facade's module loads when used
+    from flectofold_model.facade.description import Facade
 
 
-def decision_times(facade, epoch_s):
+def decision_times(facade: 'Facade', epoch_s: float) -> npt.NDArray[np.floating[Any]]:
     """POSIX times (D,) [s] of the decisions from local midnight to ``epoch_s`` (included)."""
     epoch = real_scalar('epoch_s', epoch_s)
     period = float(facade.control.get('period_s', 60.0))
@@ -30,7 +37,8 @@ def decision_times(facade, epoch_s):
     return midnight + period * np.arange(count)
 
 
-def scheduled_closure(facade, epoch_s, table=None):
+def scheduled_closure(facade: 'Facade', epoch_s: float,
+                      table: Optional[ShadingTable] = None) -> FloatArray:
     """Commanded closure (N,) of every panel at POSIX time ``epoch_s`` [s]; see the module doc.
 
     ``table`` is the schedule's :class:`~flectofold_model.shading.table.ShadingTable`
@@ -44,8 +52,9 @@ def scheduled_closure(facade, epoch_s, table=None):
     sun = solar_position(times, facade.site).enu
     dni = clear_sky_dni(decisions, facade.site)
     schedule = FacadeSchedule(facade, start_s=float(decisions[0]), table=table)
-    result = None
+    result: Optional[ScheduleResult] = None
     for index, now in enumerate(decisions):
         window = sun[index:index + ahead + 1] if ahead else sun[index]
         result = schedule.step(float(now), window, dni_w_m2=float(dni[index]))
-    return np.asarray(result.closure, dtype=float)
+    # the decisions run to the instant itself: at least one step
+    return np.asarray(cast(ScheduleResult, result).closure, dtype=float)

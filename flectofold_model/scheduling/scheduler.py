@@ -69,11 +69,13 @@ from dataclasses import dataclass, fields
 import enum
 import math
 from numbers import Integral
-from typing import NamedTuple
+from typing import NamedTuple, Optional
 
 import numpy as np
+import numpy.typing as npt
 
-from flectofold_model._validate import in_range, real_array, real_scalar
+from flectofold_model._validate import (BoolArray, FloatArray, in_range, IntArray, real_array,
+                                        real_scalar)
 from flectofold_model.scheduling.storm import StormLatch
 
 SECONDS_PER_DAY = 86400.0
@@ -181,7 +183,7 @@ class SchedulerParameters:
     default_closure: float = 0.0
     """Automatic target while the DNI gate is off [closure]."""
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         for field in fields(self):
             value = getattr(self, field.name)
             if field.name in ('daily_move_cap', 'max_parallel_fills'):
@@ -257,9 +259,11 @@ class Scheduler:
     reaches ``dni_on_w_m2`` (or at once while ``dni_w_m2`` is not given).
     """
 
-    def __init__(self, count, air_cost_nl_per_closure, parameters=SchedulerParameters(),
-                 zones=None, initial_closure=0.0, storm_latched=False, start_s=0.0,
-                 wind_timeout_s=60.0):
+    def __init__(self, count: int, air_cost_nl_per_closure: npt.ArrayLike,
+                 parameters: SchedulerParameters = SchedulerParameters(),
+                 zones: Optional[npt.ArrayLike] = None, initial_closure: npt.ArrayLike = 0.0,
+                 storm_latched: bool = False, start_s: float = 0.0,
+                 wind_timeout_s: float = 60.0) -> None:
         if isinstance(count, (bool, np.bool_)) or not isinstance(count, Integral) or count < 1:
             raise ValueError(f'count must be a positive integer, got {count!r}')
         if not isinstance(parameters, SchedulerParameters):
@@ -267,68 +271,73 @@ class Scheduler:
                 f'parameters must be SchedulerParameters, got {type(parameters).__name__}')
         if not isinstance(storm_latched, (bool, np.bool_)):
             raise TypeError(f'storm_latched must be a bool, got {storm_latched!r}')
-        self.parameters = parameters
-        self._count = int(count)
-        self._air_cost = self._per_panel('air_cost_nl_per_closure', air_cost_nl_per_closure,
-                                         0.0, np.inf, ' NL', high_open=True)
-        self._zones = None if zones is None else self._check_zones(zones)
-        self._commanded = self._per_panel('initial_closure', initial_closure, 0.0, 1.0)
-        self._now_s = real_scalar('start_s', start_s)
-        self._day = math.floor(self._now_s / SECONDS_PER_DAY)
-        self._storm = StormLatch(parameters, wind_timeout_s, storm_latched, self._now_s)
-        self._gate_on = False
-        self._tokens_nl = parameters.capacity_nl
-        self._goal = self._commanded.copy()
-        self._started = np.zeros(count, dtype=bool)
-        self._filling = np.zeros(count, dtype=bool)
-        self._waiting_since_s = np.full(count, np.nan)
-        self._last_move_s = np.full(count, -np.inf)
-        self._moves = np.zeros(count, dtype=np.int64)
-        self._override_closure = np.full(count, np.nan)
-        self._override_until_s = np.full(count, -np.inf)
-        self._mode = np.full(count, _AUTO_MODE, dtype=np.int8)
+        # The attributes' types written out: mypy knows no int as an Integral, so it takes the
+        # rest of this method for unreachable and would infer none of them.
+        self.parameters: SchedulerParameters = parameters
+        self._count: int = int(count)
+        self._air_cost: FloatArray = self._per_panel(
+            'air_cost_nl_per_closure', air_cost_nl_per_closure, 0.0, np.inf, ' NL',
+            high_open=True)
+        self._zones: Optional[IntArray] = None if zones is None else self._check_zones(zones)
+        self._commanded: FloatArray = self._per_panel('initial_closure', initial_closure, 0.0,
+                                                      1.0)
+        self._now_s: float = real_scalar('start_s', start_s)
+        self._day: int = math.floor(self._now_s / SECONDS_PER_DAY)
+        self._storm: StormLatch = StormLatch(parameters, wind_timeout_s, storm_latched,
+                                             self._now_s)
+        self._gate_on: bool = False
+        self._tokens_nl: float = parameters.capacity_nl
+        self._goal: FloatArray = self._commanded.copy()
+        self._started: BoolArray = np.zeros(count, dtype=bool)
+        self._filling: BoolArray = np.zeros(count, dtype=bool)
+        self._waiting_since_s: FloatArray = np.full(count, np.nan)
+        self._last_move_s: FloatArray = np.full(count, -np.inf)
+        self._moves: npt.NDArray[np.int64] = np.zeros(count, dtype=np.int64)
+        self._override_closure: FloatArray = np.full(count, np.nan)
+        self._override_until_s: FloatArray = np.full(count, -np.inf)
+        self._mode: npt.NDArray[np.int8] = np.full(count, _AUTO_MODE, dtype=np.int8)
 
-    def __len__(self):
+    def __len__(self) -> int:
         return self._count
 
     @property
-    def storm_latched(self):
+    def storm_latched(self) -> bool:
         """Whether the storm latch is set (save it to restore a restarted coordinator)."""
         return self._storm.latched
 
     @property
-    def storm_due_s(self):
+    def storm_due_s(self) -> Optional[float]:
         """Instant the storm latch trips or releases if no other sample comes [s]; or None."""
         return self._storm.due_s
 
     @property
-    def storm_changed_s(self):
+    def storm_changed_s(self) -> Optional[float]:
         """Instant of the storm latch's last trip or release [s]; None before the first."""
         return self._storm.changed_s
 
     @property
-    def storm_time_s(self):
+    def storm_time_s(self) -> float:
         """Latest instant the storm latch was evaluated at [s]; later calls may not be earlier."""
         return self._storm.now_s
 
     @property
-    def last_step_s(self):
+    def last_step_s(self) -> float:
         """Instant of the last :meth:`step` [s]; ``start_s`` before the first."""
         return self._now_s
 
     @property
-    def earliest_step_s(self):
+    def earliest_step_s(self) -> float:
         """Earliest instant the next :meth:`step` may be at [s].
 
         Neither before the last step nor before the storm latch's latest evaluation.
         """
         return max(self._now_s, self._storm.now_s)
 
-    def wind_m_s(self, now_s):
+    def wind_m_s(self, now_s: float) -> Optional[float]:
         """Return the wind sample that counts at ``now_s`` [m/s]; None if none or stale."""
         return self._storm.wind_m_s(now_s)
 
-    def observe_wind(self, wind_m_s, at_s):
+    def observe_wind(self, wind_m_s: float, at_s: float) -> bool:
         """Take a gust sample [m/s, >= 0] on its arrival at ``at_s`` [s]; return the latch.
 
         The trip (or release) timer starts at ``at_s``; a trip ends every override. The
@@ -339,38 +348,39 @@ class Scheduler:
         self._after_storm()
         return self._storm.latched
 
-    def advance_storm(self, now_s):
+    def advance_storm(self, now_s: float) -> bool:
         """Evaluate the storm latch at ``now_s`` [s] on the last sample; return the latch."""
         self._storm.advance(now_s)
         self._after_storm()
         return self._storm.latched
 
-    def _after_storm(self):
+    def _after_storm(self) -> None:
         if self._storm.latched:
             self._override_closure[:] = np.nan
             self._override_until_s[:] = -np.inf
 
     @property
-    def dni_gate_on(self):
+    def dni_gate_on(self) -> bool:
         """Whether the DNI gate lets automatic shading through (last reading given)."""
         return self._gate_on
 
     @property
-    def commanded_closure(self):
+    def commanded_closure(self) -> FloatArray:
         """Commanded closure of each panel after the last call (N,) [closure]."""
         return self._commanded.copy()
 
     @property
-    def tokens_nl(self):
+    def tokens_nl(self) -> float:
         """Air left in the bucket [NL]."""
         return self._tokens_nl
 
     @property
-    def moves_today(self):
+    def moves_today(self) -> npt.NDArray[np.int64]:
         """Moves each panel started in the UTC day of the last call (N,) int."""
         return self._moves.copy()
 
-    def set_override(self, closure, now_s, panels=None, zone=None, duration_s=None):
+    def set_override(self, closure: float, now_s: float, panels: Optional[npt.ArrayLike] = None,
+                     zone: Optional[int] = None, duration_s: Optional[float] = None) -> None:
         """Hold panels at a closure until ``now_s + duration_s``; replaces older overrides.
 
         Parameters
@@ -412,7 +422,8 @@ class Scheduler:
         self._override_closure[selected] = closure
         self._override_until_s[selected] = now + duration
 
-    def clear_override(self, panels=None, zone=None):
+    def clear_override(self, panels: Optional[npt.ArrayLike] = None,
+                       zone: Optional[int] = None) -> None:
         """End the overrides of ``panels`` or of ``zone``, or of every panel if neither given.
 
         A panel moving toward its override closure stops where it is; the automatic schedule
@@ -422,7 +433,9 @@ class Scheduler:
         self._override_closure[selected] = np.nan
         self._override_until_s[selected] = -np.inf
 
-    def step(self, now_s, desired_closure, wind_m_s=None, dni_w_m2=None, faulted=None):
+    def step(self, now_s: float, desired_closure: npt.ArrayLike, wind_m_s: Optional[float] = None,
+             dni_w_m2: Optional[float] = None,
+             faulted: Optional[npt.ArrayLike] = None) -> ScheduleResult:
         """Advance to ``now_s`` and return the commanded closure of every panel.
 
         Parameters
@@ -462,7 +475,8 @@ class Scheduler:
         new, air_used_nl = self._admission(now, modes, goal, new, moves, codes)
         return self._commit(modes, goal, new, codes, air_used_nl)
 
-    def _advance_clock(self, now, wind, dni):
+    def _advance_clock(self, now: float, wind: Optional[float],
+                       dni: Optional[float]) -> tuple[float, bool]:
         """Phase 1: the day's move counter, the air bucket, the storm latch and the DNI gate."""
         parameters = self.parameters
         elapsed_s = now - self._now_s
@@ -476,7 +490,7 @@ class Scheduler:
         self._update_storm(now, wind)
         return elapsed_s, self._update_gate(dni)
 
-    def _modes(self, now, fault):
+    def _modes(self, now: float, fault: BoolArray) -> _Modes:
         """Phase 2: each panel's mode, by precedence fault > storm > override > automatic."""
         live = self._override_until_s > now
         self._override_closure[~live] = np.nan
@@ -491,7 +505,8 @@ class Scheduler:
         return _Modes(fault=fault, storm=storm, override=override, auto=auto, mode=mode,
                       stop=stop, started=self._started & ~stop)
 
-    def _decide(self, now, desired, gate_on, modes):
+    def _decide(self, now: float, desired: FloatArray, gate_on: bool,
+                modes: _Modes) -> tuple[FloatArray, IntArray]:
         """Phase 3: each panel's goal and the reason code of its decision."""
         parameters = self.parameters
         closure = self._commanded
@@ -525,7 +540,8 @@ class Scheduler:
         # Storm: straight to the storm position; it may draw air but never waits for it.
         return np.where(storm, parameters.storm_position, goal), codes
 
-    def _rate_limit(self, modes, goal, codes, elapsed_s):
+    def _rate_limit(self, modes: _Modes, goal: FloatArray, codes: IntArray,
+                    elapsed_s: float) -> tuple[FloatArray, _Moves]:
         """Phase 4: storm panels jump, opening moves step by the rate limit, closing ones ask.
 
         Returns the new closures so far and the closing requests (:class:`_Moves`).
@@ -548,7 +564,8 @@ class Scheduler:
         return new, _Moves(moving=moving, closing=closing, remaining=remaining,
                            increment=increment, requesting=closing & (increment > 0.0))
 
-    def _admission(self, now, modes, goal, new, moves, codes):
+    def _admission(self, now: float, modes: _Modes, goal: FloatArray, new: FloatArray,
+                   moves: _Moves, codes: IntArray) -> tuple[FloatArray, float]:
         """Phase 5: the air bucket and the fill slots admit closing moves; the rest wait."""
         parameters = self.parameters
         closure = self._commanded
@@ -568,7 +585,8 @@ class Scheduler:
             np.where(moves.closing & ~moves.requesting, self._waiting_since_s, np.nan))
         return new, storm_air_nl + fill_air_nl
 
-    def _commit(self, modes, goal, new, codes, air_used_nl):
+    def _commit(self, modes: _Modes, goal: FloatArray, new: FloatArray, codes: IntArray,
+                air_used_nl: float) -> ScheduleResult:
         """Phase 6: count the moves started, keep the state, draw the air; the result."""
         closure = self._commanded
         changed = new != closure
@@ -585,7 +603,8 @@ class Scheduler:
                               filling=self._filling.copy(), air_used_nl=air_used_nl,
                               tokens_nl=self._tokens_nl)
 
-    def _admit(self, now, requesting, remaining, increment):
+    def _admit(self, now: float, requesting: BoolArray, remaining: FloatArray,
+               increment: FloatArray) -> tuple[BoolArray, float]:
         """Choose the closing requests the bucket and the fill slots allow this call."""
         parameters = self.parameters
         admitted = np.zeros(self._count, dtype=bool)
@@ -604,14 +623,14 @@ class Scheduler:
         admitted[index[order[:count]]] = True
         return admitted, float(total[count - 1]) if count else 0.0
 
-    def _update_storm(self, now, wind):
+    def _update_storm(self, now: float, wind: Optional[float]) -> None:
         if wind is None:
             self._storm.advance(now)
         else:
             self._storm.sample(wind, now)
         self._after_storm()
 
-    def _update_gate(self, dni):
+    def _update_gate(self, dni: Optional[float]) -> bool:
         if dni is None:
             return True
         if self._gate_on and dni < self.parameters.dni_off_w_m2:
@@ -620,14 +639,16 @@ class Scheduler:
             self._gate_on = True
         return self._gate_on
 
-    def _check_step(self, now_s, desired_closure, wind_m_s, dni_w_m2, faulted):
+    def _check_step(self, now_s: float, desired_closure: npt.ArrayLike, wind_m_s: Optional[float],
+                    dni_w_m2: Optional[float], faulted: Optional[npt.ArrayLike]
+                    ) -> tuple[float, FloatArray, Optional[float], Optional[float], BoolArray]:
         now = real_scalar('now_s', now_s)
         last_s = self.earliest_step_s
         if now < last_s:
             raise ValueError(f'now_s must not go backwards: got {now:.3f} s after '
                              f'{last_s:.3f} s')
         desired = self._per_panel('desired_closure', desired_closure, 0.0, 1.0)
-        readings = []
+        readings: list[Optional[float]] = []
         for name, value, unit in (('wind_m_s', wind_m_s, ' m/s'),
                                   ('dni_w_m2', dni_w_m2, ' W/m2')):
             if value is not None:
@@ -646,7 +667,8 @@ class Scheduler:
             fault = fault.copy()
         return now, desired, readings[0], readings[1], fault
 
-    def _per_panel(self, name, value, low, high, unit='', high_open=False):
+    def _per_panel(self, name: str, value: npt.ArrayLike, low: float, high: float, unit: str = '',
+                   high_open: bool = False) -> FloatArray:
         array = real_array(name, value)
         if array.ndim == 0:
             array = np.full(self._count, float(array))
@@ -657,7 +679,7 @@ class Scheduler:
             array = array.copy()
         return in_range(name, array, low, high, unit, high_open=high_open)
 
-    def _check_zones(self, zones):
+    def _check_zones(self, zones: npt.ArrayLike) -> IntArray:
         array = np.asarray(zones)
         if array.dtype.kind not in 'iu':
             raise TypeError(f'zones must be integer labels, got dtype {array.dtype}')
@@ -665,7 +687,8 @@ class Scheduler:
             raise ValueError(f'zones must have shape ({self._count},), got shape {array.shape}')
         return array.copy()
 
-    def _select(self, panels, zone, everything_if_none):
+    def _select(self, panels: Optional[npt.ArrayLike], zone: Optional[int],
+                everything_if_none: bool) -> BoolArray:
         """Bool mask (N,) of the panels named by ``panels`` or by ``zone``."""
         if panels is not None and zone is not None:
             raise ValueError('give panels or zone, not both')

@@ -30,11 +30,52 @@ reported, which state its last decision saw, and when the latch must be evaluate
 """
 
 import math
-from typing import NamedTuple, Optional
+from typing import cast, NamedTuple, Optional, Protocol
 
 import numpy as np
 
 from flectofold_model._validate import in_range, real_scalar
+
+
+class StormSettings(Protocol):
+    """The latch's settings (:class:`~.scheduler.SchedulerParameters` has them).
+
+    Protocols, here and in :class:`StormSource`: the scheduler's module imports this one.
+    """
+
+    wind_on_m_s: float
+    wind_off_m_s: float
+    storm_on_delay_s: float
+    storm_off_delay_s: float
+
+
+class StormSource(Protocol):
+    """The storm interface of a :class:`~.scheduler.Scheduler`, all :class:`StormEvents` uses."""
+
+    @property
+    def storm_latched(self) -> bool:
+        """Whether the latch is set."""
+
+    @property
+    def storm_time_s(self) -> float:
+        """Latest instant the latch was evaluated at [s]."""
+
+    @property
+    def storm_due_s(self) -> Optional[float]:
+        """Instant of the pending trip or release [s]; or None."""
+
+    @property
+    def storm_changed_s(self) -> Optional[float]:
+        """Instant of the last trip or release [s]; or None."""
+
+    def wind_m_s(self, now_s: float) -> Optional[float]:
+        """Return the sample that counts at ``now_s`` [m/s]; or None."""
+
+    def observe_wind(self, wind_m_s: float, at_s: float) -> bool:
+        """Take a sample [m/s] that arrived at ``at_s`` [s]; return the latch."""
+
+    def advance_storm(self, now_s: float) -> bool:
+        """Evaluate the latch at ``now_s`` [s]; return it."""
 
 
 class StormLatch:
@@ -52,36 +93,37 @@ class StormLatch:
         Clock at construction [s]; no sample or evaluation may be earlier.
     """
 
-    def __init__(self, parameters, stale_s=60.0, latched=False, start_s=0.0):
+    def __init__(self, parameters: StormSettings, stale_s: float = 60.0,
+                 latched: bool = False, start_s: float = 0.0) -> None:
         self.parameters = parameters
         self.stale_s = real_scalar('stale_s', stale_s)
         if not self.stale_s > 0.0:
             raise ValueError(f'stale_s must be positive, got {self.stale_s:g} s')
         self._latched = bool(latched)
         self._now_s = real_scalar('start_s', start_s)
-        self._wind_m_s = None
+        self._wind_m_s: Optional[float] = None
         self._sample_s = -math.inf
-        self._run_start_s = None
-        self.changed_s = None
+        self._run_start_s: Optional[float] = None
+        self.changed_s: Optional[float] = None
         """Instant of the last trip or release [s]; None before the first."""
 
     @property
-    def latched(self):
+    def latched(self) -> bool:
         """Whether the latch is set."""
         return self._latched
 
     @property
-    def now_s(self):
+    def now_s(self) -> float:
         """Latest instant the latch was evaluated at [s]."""
         return self._now_s
 
     @property
-    def run_start_s(self):
+    def run_start_s(self) -> Optional[float]:
         """Start of the pending trip (or release, while latched) timer [s]; None if none."""
         return self._run_start_s
 
     @property
-    def due_s(self):
+    def due_s(self) -> Optional[float]:
         """Instant the latch trips (or releases) if the held sample stays the last [s].
 
         None while no timer runs, or when the held sample goes stale before the hold ends.
@@ -91,17 +133,17 @@ class StormLatch:
         due = self._run_start_s + self._delay_s()
         return due if due <= self._sample_s + self.stale_s else None
 
-    def wind_m_s(self, now_s):
+    def wind_m_s(self, now_s: float) -> Optional[float]:
         """Return the held sample at ``now_s`` [m/s]; None if there is none or it is stale."""
         if self._wind_m_s is None or now_s - self._sample_s > self.stale_s:
             return None
         return self._wind_m_s
 
-    def advance(self, now_s):
+    def advance(self, now_s: float) -> bool:
         """Evaluate the latch at ``now_s`` [s] on the held sample; return whether it changed."""
         return self._advance(self._check_time('now_s', now_s), up_to=False)
 
-    def _advance(self, now, up_to):
+    def _advance(self, now: float, up_to: bool) -> bool:
         """Evaluate at ``now``; ``up_to``: a new sample arrives then, the held one ends there."""
         self._now_s = now
         if self._run_start_s is None:
@@ -117,7 +159,7 @@ class StormLatch:
             self._run_start_s = None
         return False
 
-    def sample(self, wind_m_s, at_s):
+    def sample(self, wind_m_s: float, at_s: float) -> bool:
         """Take a gust sample [m/s] that arrived at ``at_s`` [s]; return whether it changed."""
         wind = real_scalar('wind_m_s', wind_m_s)
         in_range('wind_m_s', np.asarray(wind), 0.0, math.inf, ' m/s', high_open=True)
@@ -133,17 +175,17 @@ class StormLatch:
         self._advance(at, up_to=False)
         return self._latched != before
 
-    def _counts(self, wind):
+    def _counts(self, wind: float) -> bool:
         """Whether ``wind`` runs the timer of the current state."""
         if self._latched:
             return wind < self.parameters.wind_off_m_s
         return wind > self.parameters.wind_on_m_s
 
-    def _delay_s(self):
+    def _delay_s(self) -> float:
         parameters = self.parameters
         return parameters.storm_off_delay_s if self._latched else parameters.storm_on_delay_s
 
-    def _check_time(self, name, value):
+    def _check_time(self, name: str, value: float) -> float:
         time_s = real_scalar(name, value)
         if time_s < self._now_s:
             raise ValueError(f'{name} must not go backwards: got {time_s:.3f} s after '
@@ -159,7 +201,7 @@ class StormChange(NamedTuple):
     at_s: float
     """Instant of the change [s]: the end of its hold, not the evaluation that found it."""
 
-    def describe(self):
+    def describe(self) -> str:
         """Return the change as one line of a log, its instant to the millisecond."""
         return (f'storm latch {"tripped" if self.latched else "released"} at {self.at_s:.3f} '
                 f's: panels {"to the storm position" if self.latched else "back to automatic"}')
@@ -213,32 +255,32 @@ class StormEvents:
         ``storm_changed_s``, ``wind_m_s``, ``observe_wind``, ``advance_storm``).
     """
 
-    def __init__(self, scheduler):
+    def __init__(self, scheduler: StormSource) -> None:
         self.scheduler = scheduler
         self._reported = scheduler.storm_latched
         self._decided = scheduler.storm_latched
 
     @property
-    def latched(self):
+    def latched(self) -> bool:
         """Whether the latch is set."""
         return self.scheduler.storm_latched
 
     @property
-    def due_s(self):
+    def due_s(self) -> Optional[float]:
         """Instant of the pending trip or release [s]; None while the latch needs no timer."""
         return self.scheduler.storm_due_s
 
     @property
-    def decision_due(self):
+    def decision_due(self) -> bool:
         """Whether the storm needs a decision even without a fresh sun."""
         latched = self.scheduler.storm_latched
         return latched or latched != self._decided
 
-    def behind(self, at_s):
+    def behind(self, at_s: float) -> bool:
         """Whether ``at_s`` [s] is before the latch's latest evaluation (so not taken)."""
         return at_s < self.scheduler.storm_time_s
 
-    def observe_wind(self, wind_m_s, at_s):
+    def observe_wind(self, wind_m_s: float, at_s: float) -> Optional[StormUpdate]:
         """Take a gust sample [m/s, >= 0] that arrived at ``at_s`` [s].
 
         Returns
@@ -252,7 +294,7 @@ class StormEvents:
         self.scheduler.observe_wind(wind_m_s, at_s)
         return self._update(was)
 
-    def advance(self, now_s):
+    def advance(self, now_s: float) -> Optional[StormUpdate]:
         """Evaluate the latch at ``now_s`` [s] on the held sample.
 
         Returns
@@ -266,11 +308,11 @@ class StormEvents:
         self.scheduler.advance_storm(now_s)
         return self._update(was)
 
-    def stepped(self):
+    def stepped(self) -> None:
         """Note that a decision's step has run on the latch as it is now."""
         self._decided = self.scheduler.storm_latched
 
-    def report(self):
+    def report(self) -> Optional[StormChange]:
         """Return the latch's change not yet reported, a :class:`StormChange`; or None.
 
         A decision's step evaluates the latch too: when it reaches a trip or release instant
@@ -280,14 +322,15 @@ class StormEvents:
         if latched == self._reported:
             return None
         self._reported = latched
-        return StormChange(latched, self.scheduler.storm_changed_s)
+        # set by the trip or release being reported
+        return StormChange(latched, cast(float, self.scheduler.storm_changed_s))
 
-    def status(self, now_s):
+    def status(self, now_s: float) -> StormStatus:
         """Return the :class:`StormStatus` at ``now_s`` [s]."""
         scheduler = self.scheduler
         wind = None if self.behind(now_s) else scheduler.wind_m_s(now_s)
         due = scheduler.storm_due_s
         return StormStatus(scheduler.storm_latched, wind, None if due is None else due - now_s)
 
-    def _update(self, was):
+    def _update(self, was: bool) -> StormUpdate:
         return StormUpdate(self.report(), self.scheduler.storm_latched != was)

@@ -17,6 +17,9 @@ neighbours across the six sides, ``sqrt(3) R`` away.
 import math
 
 import numpy as np
+import numpy.typing as npt
+
+from flectofold_model._validate import FloatArray, IntArray
 
 #: Unit normals (3, 2) of the hexagon's three pairs of opposite sides (azimuths 0, 60 and
 #: 120 degrees); the hexagon is ``|n . p| <= sqrt(3) R / 2`` for all three.
@@ -25,13 +28,13 @@ SIDE_NORMALS = np.array([[math.cos(a), math.sin(a)] for a in np.radians([0.0, 60
 _REACH_SLACK = 1e-9
 
 
-def bounding_box_m(circumradius_m):
+def bounding_box_m(circumradius_m: npt.ArrayLike) -> FloatArray:
     """(N, 2) size of each hexagon's bounding box, ``(sqrt(3) R, 2 R)`` [m]."""
     radius = np.asarray(circumradius_m, dtype=float)
     return np.stack([math.sqrt(3.0) * radius, 2.0 * radius], axis=-1)
 
 
-def lattice_basis(circumradius_m):
+def lattice_basis(circumradius_m: npt.ArrayLike) -> FloatArray:
     """(N, 2, 2) tiling lattice of each panel, the columns ``b1`` and ``b2`` [m]."""
     radius = np.asarray(circumradius_m, dtype=float)
     basis = np.empty(radius.shape + (2, 2))
@@ -42,7 +45,8 @@ def lattice_basis(circumradius_m):
     return basis
 
 
-def cells_crossed(start_m, span_m, basis, reach_m):
+def cells_crossed(start_m: FloatArray, span_m: FloatArray, basis: FloatArray,
+                  reach_m: FloatArray) -> tuple[IntArray, FloatArray]:
     """Lattice cells that the rays of each panel can meet, with the panel each belongs to.
 
     The rays of panel n start within ``reach_m`` of the point ``start_m[n]`` (its footprint's

@@ -51,19 +51,26 @@ References
 """
 
 from dataclasses import dataclass
+from typing import Callable, Optional, Union
 
 import numpy as np
+import numpy.typing as npt
 
-from flectofold_model._validate import in_range, real_array, real_scalar
+from flectofold_model._validate import (BoolArray, FloatArray, FloatOrArray, in_range, IntArray,
+                                        real_array, real_scalar)
 from flectofold_model.kinematics import elastica
 from flectofold_model.kinematics.closure import FoldModel
 from flectofold_model.kinematics.hexagon_closure import HexagonFoldModel, MAX_SPOKE_TILT_RAD
 from flectofold_model.kinematics.hexagon_mesh import hexagon_mesh, HexagonTopology
 from flectofold_model.kinematics.hexagon_panel import HexagonBatch
-from flectofold_model.kinematics.kinds import is_topology_for
-from flectofold_model.kinematics.mesh import fold_mesh, MeshTopology
+from flectofold_model.kinematics.kinds import AnyFoldModel, Batch, is_topology_for
+from flectofold_model.kinematics.mesh import fold_mesh, FoldMesh, MeshTopology
 from flectofold_model.kinematics.panel import PanelBatch
 from flectofold_model.shading import hexagon_tiling, scan_lines
+from flectofold_model.shading.scan_lines import ScanLines
+
+#: A mesh resolution of either panel kind.
+Topology = Union[MeshTopology, HexagonTopology]
 
 #: Mesh resolution for shading: 11 stations x (3 + 2 x 7) columns, 280 triangles per panel.
 SHADING_TOPOLOGY = MeshTopology(stations=11, midrib_columns=3, flap_columns=7)
@@ -120,9 +127,10 @@ class ShadingChoice:
     """``blocked_fraction >= target``; always ``True`` where not sunlit (nothing to block)."""
 
 
-def blocked_fraction(batch, shape_parameter, sun_panel, topology=None, samples=DEFAULT_SAMPLES,
-                     standoff_m=DEFAULT_STANDOFF_M, tessellated=True,
-                     max_cells=DEFAULT_MAX_CELLS):
+def blocked_fraction(batch: Batch, shape_parameter: npt.ArrayLike, sun_panel: npt.ArrayLike,
+                     topology: Optional[Topology] = None, samples: int = DEFAULT_SAMPLES,
+                     standoff_m: float = DEFAULT_STANDOFF_M, tessellated: bool = True,
+                     max_cells: int = DEFAULT_MAX_CELLS) -> Shading:
     """Share of each panel's footprint that the folded sheets keep out of the direct sun.
 
     Vectorised over panels: the scan lines of a chunk of panels are tested against all their
@@ -177,7 +185,9 @@ def blocked_fraction(batch, shape_parameter, sun_panel, topology=None, samples=D
     return _shading(batch, shape, sun, *options)
 
 
-def view_fraction(batch, shape_parameter, topology=None, samples=DEFAULT_SAMPLES):
+def view_fraction(batch: Batch, shape_parameter: npt.ArrayLike,
+                  topology: Optional[Topology] = None,
+                  samples: int = DEFAULT_SAMPLES) -> FloatArray:
     """Share of each panel's footprint that is open to view along the facade normal.
 
     ``1 - blocked_fraction`` for a sun on the facade normal, ``s = (0, 0, 1)``: the rays run
@@ -213,10 +223,12 @@ def view_fraction(batch, shape_parameter, topology=None, samples=DEFAULT_SAMPLES
     return 1.0 - _shading(batch, shape, sun, *options).blocked_fraction
 
 
-def closure_for_shading(fold_model, sun_panel, target_blocked, closures=DEFAULT_CLOSURES,
-                        topology=None, samples=DEFAULT_SAMPLES,
-                        standoff_m=DEFAULT_STANDOFF_M, tessellated=True,
-                        max_cells=DEFAULT_MAX_CELLS):
+def closure_for_shading(fold_model: AnyFoldModel, sun_panel: npt.ArrayLike,
+                        target_blocked: npt.ArrayLike,
+                        closures: npt.ArrayLike = DEFAULT_CLOSURES,
+                        topology: Optional[Topology] = None, samples: int = DEFAULT_SAMPLES,
+                        standoff_m: float = DEFAULT_STANDOFF_M, tessellated: bool = True,
+                        max_cells: int = DEFAULT_MAX_CELLS) -> ShadingChoice:
     """Choose, per panel, the candidate closure with the most view that blocks enough sun.
 
     Decision rule, per panel, over the candidate closures ``c`` with blocked fraction
@@ -301,7 +313,8 @@ def closure_for_shading(fold_model, sun_panel, target_blocked, closures=DEFAULT_
                          meets_target=chosen_blocked >= np.where(sunlit, target, 0.0))
 
 
-def choose_candidate(closures, blocked, views, sunlit, target):
+def choose_candidate(closures: npt.ArrayLike, blocked: FloatArray, views: FloatArray,
+                     sunlit: BoolArray, target: FloatOrArray) -> IntArray:
     """Index (N,) of the candidate each panel takes by the rule of :func:`closure_for_shading`.
 
     Shared by every caller, so the rule lives in one place. A candidate counts as meeting
@@ -338,7 +351,8 @@ def choose_candidate(closures, blocked, views, sunlit, target):
     return np.lexsort((smaller, second, first, feasible), axis=-1)[:, -1]
 
 
-def _check_panels(batch, shape_parameter, sun_panel):
+def _check_panels(batch: Batch, shape_parameter: npt.ArrayLike,
+                  sun_panel: npt.ArrayLike) -> tuple[Batch, FloatArray, FloatArray]:
     if isinstance(batch, PanelBatch):
         count = len(batch)
         shape = in_range('k', _per_panel('k', shape_parameter, count), 0.0, elastica.K_MAX)
@@ -359,7 +373,8 @@ def _check_panels(batch, shape_parameter, sun_panel):
     return batch, shape, _unit_vectors('sun_panel', sun_panel, count)
 
 
-def _check_options(batch, topology, samples, standoff_m, tessellated, max_cells):
+def _check_options(batch: Batch, topology: Optional[Topology], samples: int, standoff_m: float,
+                   tessellated: bool, max_cells: int) -> tuple[Topology, int, float, bool, int]:
     if topology is None:
         topology = (HEXAGON_SHADING_TOPOLOGY if isinstance(batch, HexagonBatch)
                     else SHADING_TOPOLOGY)
@@ -378,7 +393,7 @@ def _check_options(batch, topology, samples, standoff_m, tessellated, max_cells)
     return topology, int(samples), standoff, bool(tessellated), int(max_cells)
 
 
-def _per_panel(name, value, count):
+def _per_panel(name: str, value: npt.ArrayLike, count: int) -> FloatArray:
     array = real_array(name, value)
     try:
         return np.broadcast_to(array, (count,))
@@ -387,7 +402,7 @@ def _per_panel(name, value, count):
                          f'for {count} panels') from None
 
 
-def _unit_vectors(name, value, count):
+def _unit_vectors(name: str, value: npt.ArrayLike, count: int) -> FloatArray:
     array = real_array(name, value)
     if array.shape not in ((3,), (count, 3)):
         raise ValueError(f'{name} has shape {array.shape}; expected (3,) or ({count}, 3) for '
@@ -402,7 +417,8 @@ def _unit_vectors(name, value, count):
     return array / norm[:, None]
 
 
-def _shading(batch, shape, sun, topology, samples, standoff, tessellated, max_cells):
+def _shading(batch: Batch, shape: FloatArray, sun: FloatArray, topology: Topology, samples: int,
+             standoff: float, tessellated: bool, max_cells: int) -> Shading:
     """Blocked fractions of validated inputs; the panels are meshed a chunk at a time."""
     sunlit = sun[:, 2] > SUNLIT_MIN_SZ
     blocked = np.zeros(len(batch))
@@ -411,7 +427,10 @@ def _shading(batch, shape, sun, topology, samples, standoff, tessellated, max_ce
     lines = (scan_lines.hexagon_lines(samples, hexagon_tiling.SIDE_NORMALS) if hexagonal
              else scan_lines.quad_lines(samples))
     chord = scan_lines.chord_length(lines)
-    mesh, cast = (hexagon_mesh, _cast_hexagon) if hexagonal else (fold_mesh, _cast)
+    # The mesher and the caster of the batch's kind (its topology's too: _check_options).
+    kind: tuple[Callable[..., FoldMesh], Callable[..., FloatArray]] = (
+        (hexagon_mesh, _cast_hexagon) if hexagonal else (fold_mesh, _cast))
+    mesh, cast = kind
     for start in range(0, lit.size, _PANEL_CHUNK):
         index = lit[start:start + _PANEL_CHUNK]
         chunk = batch.take(index)
@@ -422,7 +441,8 @@ def _shading(batch, shape, sun, topology, samples, standoff, tessellated, max_ce
     return Shading(blocked_fraction=blocked, sunlit=sunlit)
 
 
-def _cast(batch, vertices, faces, sun, lines, standoff, tessellated, max_cells):
+def _cast(batch: PanelBatch, vertices: FloatArray, faces: IntArray, sun: FloatArray,
+          lines: ScanLines, standoff: float, tessellated: bool, max_cells: int) -> FloatArray:
     """(n,) blocked length of the scan lines of n sunlit panels under their (copied) meshes.
 
     Every ray is started where it enters the meshes' height range, at ``z0``: the mesh lies
@@ -458,7 +478,9 @@ def _cast(batch, vertices, faces, sun, lines, standoff, tessellated, max_cells):
                     corners.max(axis=2), rows, lines, len(batch))
 
 
-def _cast_hexagon(batch, vertices, faces, sun, lines, standoff, tessellated, max_cells):
+def _cast_hexagon(batch: HexagonBatch, vertices: FloatArray, faces: IntArray, sun: FloatArray,
+                  lines: ScanLines, standoff: float, tessellated: bool,
+                  max_cells: int) -> FloatArray:
     """(n,) blocked length of the scan lines of n sunlit hexagonal panels under their meshes.
 
     As :func:`_cast`, on the hexagonal lattice of :mod:`.hexagon_tiling`: the rays start at
@@ -501,7 +523,7 @@ def _cast_hexagon(batch, vertices, faces, sun, lines, standoff, tessellated, max
                     corners.max(axis=2), rows, lines, len(batch), slabs=(axes, half))
 
 
-def _cells_crossed(start, span):
+def _cells_crossed(start: FloatArray, span: FloatArray) -> tuple[IntArray, FloatArray]:
     """Cells (in cell units, relative to the home cell) each panel's rays can pass through.
 
     The rays of a panel start anywhere in the home cell shifted by ``start`` and run by
@@ -530,7 +552,8 @@ def _cells_crossed(start, span):
     return panel[crossed], cells[crossed].astype(np.float64)
 
 
-def _triangle_factors(vertices, faces, sun):
+def _triangle_factors(vertices: FloatArray, faces: IntArray,
+                      sun: FloatArray) -> tuple[FloatArray, FloatArray]:
     """Per panel and triangle, Moller-Trumbore's barycentric coordinates as affine maps.
 
     Returns ``(gradient, constant)`` with ``gradient`` (n, 3, 3F) and ``constant`` (n, 3F):
@@ -570,7 +593,9 @@ class _Rows:
     """Cell size ``(L, W)`` of the row's panel (a hexagon's bounding box), ``(R, 2)`` [m]."""
 
 
-def _covered(factors, corners, shadow_low, shadow_high, rows, lines, count, slabs=None):
+def _covered(factors: tuple[FloatArray, FloatArray], corners: FloatArray, shadow_low: FloatArray,
+             shadow_high: FloatArray, rows: '_Rows', lines: ScanLines, count: int,
+             slabs: Optional[tuple[FloatArray, FloatArray]] = None) -> FloatArray:
     """Blocked length (count,) of each panel's scan lines: the union of all rows' intervals.
 
     The ray of the point ``(xi, eta)`` in row r starts at ``(xi L + ox, eta W + oy, z0)``, so
@@ -609,7 +634,10 @@ def _covered(factors, corners, shadow_low, shadow_high, rows, lines, count, slab
     return scan_lines.covered_length(owner, line, start, end, count, lines.start.size)
 
 
-def _block_intervals(factors, corners, rows, row, triangle, lines):
+def _block_intervals(factors: tuple[FloatArray, FloatArray], corners: FloatArray, rows: '_Rows',
+                     row: IntArray, triangle: IntArray, lines: ScanLines
+                     ) -> tuple[IntArray, IntArray, npt.NDArray[np.float32],
+                                npt.NDArray[np.float32]]:
     """Intervals of the scan lines that the (row, triangle) pairs (P,) block.
 
     Returns the panel, the line and the ends ``t`` of every non-empty interval (K,): the part

@@ -19,8 +19,12 @@ panel, in units of ``(L, W)``, or the hexagon, in units of its circumradius ``R`
 
 from dataclasses import dataclass
 import math
+from typing import Any
 
 import numpy as np
+import numpy.typing as npt
+
+from flectofold_model._validate import FloatArray, IntArray
 
 #: Angle of the scan lines to the x axis (the mid-rib) of a quad panel's footprint, in units
 #: of ``(L, W)``: the golden-ratio slope, far from the x and y axes.
@@ -66,7 +70,8 @@ class ScanLines:
     spacing: float
     """Offset from one line to the next (the strips' width)."""
 
-    def index_range(self, low_offset, high_offset, margin=0.01):
+    def index_range(self, low_offset: FloatArray, high_offset: FloatArray,
+                    margin: float = 0.01) -> tuple[IntArray, IntArray]:
         """First and last lines (clipped to the footprint's) with offsets within the bounds.
 
         ``margin`` (in line spacings) widens the bounds, so a line through a bound's end counts.
@@ -78,31 +83,31 @@ class ScanLines:
                 np.clip(last, -1, top).astype(np.int64))
 
     @property
-    def offset32(self):
+    def offset32(self) -> npt.NDArray[np.float32]:
         """:attr:`offset` in float32."""
         return self.offset.astype(np.float32)
 
     @property
-    def start32(self):
+    def start32(self) -> npt.NDArray[np.float32]:
         """:attr:`start` in float32 (exact: the ends are float32 numbers)."""
         return self.start.astype(np.float32)
 
     @property
-    def end32(self):
+    def end32(self) -> npt.NDArray[np.float32]:
         """:attr:`end` in float32 (exact)."""
         return self.end.astype(np.float32)
 
-    def quantised(self):
+    def quantised(self) -> tuple[IntArray, IntArray]:
         """(M,) starts and ends on the integer grid of :func:`covered_length`."""
         return _quantise(self.start), _quantise(self.end)
 
 
-def line_count(samples):
+def line_count(samples: int) -> int:
     """Scan lines for ``samples``: ``LINES_PER_SAMPLE * samples``."""
     return LINES_PER_SAMPLE * int(samples)
 
 
-def quad_lines(samples):
+def quad_lines(samples: int) -> ScanLines:
     """Scan lines across the ``L x W`` footprint of a quad panel (units of ``(L, W)``)."""
     normals = np.array([[1.0, 0.0], [0.0, 1.0]])
     origin, direction, start, end, offsets = _lines_across(
@@ -110,7 +115,7 @@ def quad_lines(samples):
     return _scan_lines(origin, direction, start, end, offsets, np.ones(2))
 
 
-def hexagon_lines(samples, side_normals):
+def hexagon_lines(samples: int, side_normals: FloatArray) -> ScanLines:
     """Scan lines across a hexagon with sides ``|n_j . p| <= sqrt(3) R / 2`` (``t`` in R).
 
     ``side_normals`` (3, 2) are the unit normals of its three pairs of opposite sides; the
@@ -123,7 +128,8 @@ def hexagon_lines(samples, side_normals):
                                                                          0.5]))
 
 
-def covered_length(owner, line, start, end, count, lines):
+def covered_length(owner: IntArray, line: IntArray, start: npt.NDArray[np.floating[Any]],
+                   end: npt.NDArray[np.floating[Any]], count: int, lines: int) -> FloatArray:
     """Length (in ``t``) of the union of the intervals on each of ``count`` panels' lines.
 
     ``owner`` and ``line`` (K,) name the panel and the line of each interval
@@ -143,18 +149,20 @@ def covered_length(owner, line, start, end, count, lines):
     return np.bincount(owner[order], weights=covered, minlength=count) / _QUANTUM
 
 
-def chord_length(lines):
+def chord_length(lines: ScanLines) -> float:
     """Sum of the lines' chords across the footprint, on the grid of :func:`covered_length`."""
     start, end = lines.quantised()
     return float(np.sum(end - start)) / _QUANTUM
 
 
-def _quantise(t):
+def _quantise(t: npt.ArrayLike) -> npt.NDArray[np.int64]:
     """``t`` on the grid of ``2**-30`` units, rounded toward zero."""
     return (np.asarray(t) * _QUANTUM).astype(np.int64)
 
 
-def _lines_across(normals, half, angle_rad, count):
+def _lines_across(normals: FloatArray, half: FloatArray, angle_rad: float, count: int
+                  ) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray,
+                             tuple[FloatArray, FloatArray, float]]:
     """``count`` lines at ``angle_rad`` across the slabs ``|normals . p| <= half``.
 
     They are the midlines of ``count`` equal strips that together cover the footprint.
@@ -179,7 +187,7 @@ def _lines_across(normals, half, angle_rad, count):
     return origin, direction, start, np.maximum(end, start), (across, offset, spacing)
 
 
-def _corners(normals, half):
+def _corners(normals: FloatArray, half: FloatArray) -> FloatArray:
     """Corners of the convex polygon ``|normals . p| <= half`` (pairwise slab crossings)."""
     points = []
     for i in range(len(normals)):
@@ -193,7 +201,8 @@ def _corners(normals, half):
     return points[inside]
 
 
-def _scan_lines(origin, direction, start, end, offsets, scale):
+def _scan_lines(origin: FloatArray, direction: FloatArray, start: FloatArray, end: FloatArray,
+                offsets: tuple[FloatArray, FloatArray, float], scale: FloatArray) -> ScanLines:
     """Make the ScanLines of lines in footprint units, scaled by ``scale`` to the box's."""
     across, offset, spacing = offsets
     rows = np.column_stack([origin * scale, np.ones(len(origin))])

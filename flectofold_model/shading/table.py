@@ -20,10 +20,14 @@ interpolation against direct ray casting is measured in the tests and printed by
 ``bench/bench_schedule.py``.
 """
 
-import numpy as np
+from typing import cast
 
+import numpy as np
+import numpy.typing as npt
+
+from flectofold_model._validate import BoolArray, FloatArray, IntArray
 from flectofold_model.kinematics.hexagon_panel import HexagonPanel
-from flectofold_model.kinematics.kinds import batch_of, fold_model_of
+from flectofold_model.kinematics.kinds import batch_of, fold_model_of, Panel
 from flectofold_model.kinematics.panel import PanelGeometry
 from flectofold_model.shading.ray_casting import (blocked_fraction, choose_candidate,
                                                   SUNLIT_MIN_SZ, view_fraction)
@@ -37,8 +41,9 @@ class ShadingTable:
     the nodes' accuracy: msg_docs/scheduling.md, section "Accuracy of the blocked fraction").
     """
 
-    def __init__(self, panel, closures=np.linspace(0.0, 1.0, 11), step_deg=5.0,
-                 max_profile_deg=85.0, samples=24):
+    def __init__(self, panel: Panel, closures: npt.ArrayLike = np.linspace(0.0, 1.0, 11),
+                 step_deg: float = 5.0, max_profile_deg: float = 85.0,
+                 samples: int = 24) -> None:
         if not isinstance(panel, (PanelGeometry, HexagonPanel)):
             raise TypeError(f'panel must be a PanelGeometry or a HexagonPanel, got '
                             f'{type(panel).__name__}')
@@ -68,7 +73,7 @@ class ShadingTable:
                                   samples=samples)
         """(C,) view fraction per closure."""
 
-    def blocked_fractions(self, sun_panel):
+    def blocked_fractions(self, sun_panel: npt.ArrayLike) -> FloatArray:
         """(N, C) blocked fractions for sun directions (N, 3) in the panel frame."""
         sun = np.asarray(sun_panel, dtype=float).reshape(-1, 3)
         sunlit = sun[:, 2] > SUNLIT_MIN_SZ
@@ -81,7 +86,7 @@ class ShadingTable:
                   + (1 - u) * v * table[:, i, j + 1] + u * v * table[:, i + 1, j + 1])
         return np.where(sunlit[:, None], values.T, 0.0)
 
-    def choose(self, sun_panel, target_blocked):
+    def choose(self, sun_panel: npt.ArrayLike, target_blocked: npt.ArrayLike) -> FloatArray:
         """Closures (N,) by the rule of :func:`.ray_casting.closure_for_shading`.
 
         ``sun_panel`` is (N, 3), or (W, N, 3) for a look-ahead window, judged by each
@@ -92,7 +97,7 @@ class ShadingTable:
         blocked = np.stack([self.blocked_fractions(s) for s in window])
         lit = window[..., 2] > SUNLIT_MIN_SZ
         worst = np.where(lit[..., None], blocked, np.inf).min(axis=0)
-        any_lit = lit.any(axis=0)
+        any_lit = cast(BoolArray, lit.any(axis=0))  # (N,): lit is (W, N)
         worst = np.where(any_lit[:, None], worst, 0.0)
         views = np.broadcast_to(self.view, worst.shape)
         target = np.broadcast_to(np.asarray(target_blocked, dtype=float), any_lit.shape)
@@ -100,7 +105,7 @@ class ShadingTable:
             raise ValueError('target_blocked must lie in [0, 1]')
         return self.closures[choose_candidate(self.closures, worst, views, any_lit, target)]
 
-    def _locate(self, angle):
+    def _locate(self, angle: FloatArray) -> tuple[IntArray, FloatArray]:
         grid = self.profile_rad
         step = grid[1] - grid[0]
         position = (np.clip(angle, grid[0], grid[-1]) - grid[0]) / step

@@ -7,11 +7,22 @@ angles by linear interpolation between its equilibria; closures it did not reach
 """
 
 from dataclasses import dataclass
+from typing import Optional, TYPE_CHECKING, Union
 
 import numpy as np
+import numpy.typing as npt
 
+from flectofold_model._validate import FloatArray
 from flectofold_model.actuation.kinds import actuation_model_of
 from flectofold_model.actuation.strain import panel_strain
+
+if TYPE_CHECKING:  # the structural path's module loads where a path is traced
+    from flectofold_model.actuation.hexagon_statics import HexagonActuatedPanel
+    from flectofold_model.actuation.statics import ActuatedPanel
+    from flectofold_model.structure.panel import StructuralPath
+
+#: An actuated panel of either kind.
+Actuated = Union['ActuatedPanel', 'HexagonActuatedPanel']
 
 
 @dataclass(frozen=True)
@@ -34,13 +45,13 @@ class ClosureRows:
     """Peak mid-rib surface strain."""
     flap_strain: np.ndarray
     """Peak flap surface strain."""
-    support_fold_rad: np.ndarray = None
+    support_fold_rad: Optional[np.ndarray] = None
     """Fold angle next to the supports [rad] (structural only)."""
-    stable_at_pressure: np.ndarray = None
+    stable_at_pressure: Optional[np.ndarray] = None
     """Whether a pressure regulator holds the closure (structural only)."""
 
 
-def closure_apex_folds_rad(actuated, closures):
+def closure_apex_folds_rad(actuated: Actuated, closures: npt.ArrayLike) -> FloatArray:
     """Apex fold angles [rad] of ``closures`` of one actuated panel (quad or hexagon).
 
     The package's closure is linear in the apex fold, from the pre-fold (0) to the kinematic
@@ -52,7 +63,7 @@ def closure_apex_folds_rad(actuated, closures):
     return opened + np.asarray(closures, dtype=np.float64) * (closed - opened)
 
 
-def kinematic_rows(actuated, closures):
+def kinematic_rows(actuated: Actuated, closures: npt.ArrayLike) -> ClosureRows:
     """Read the reflection model with its energy statics at ``closures`` (quad or hexagon)."""
     closures = np.asarray(closures, dtype=np.float64)
     model = actuation_model_of([actuated] * len(closures))
@@ -65,7 +76,8 @@ def kinematic_rows(actuated, closures):
                        strain.flap_strain)
 
 
-def structural_rows(actuated, path, closures):
+def structural_rows(actuated: Actuated, path: 'StructuralPath',
+                    closures: npt.ArrayLike) -> ClosureRows:
     """Read a :class:`~.panel.StructuralPath` at the closures of the kinematic map."""
     closures = np.asarray(closures, dtype=np.float64)
     target = closure_apex_folds_rad(actuated, closures)
@@ -74,7 +86,7 @@ def structural_rows(actuated, path, closures):
     end = int(np.argmax(fold)) + 1
     rising = np.maximum.accumulate(fold[:end])
 
-    def at(values):
+    def at(values: npt.ArrayLike) -> FloatArray:
         values = np.asarray(values, dtype=np.float64)[:end]
         result = np.interp(target, rising, values)
         return np.where((target >= rising[0] - 1e-9) & (target <= rising[-1] + 1e-9),

@@ -24,14 +24,17 @@ import fcntl
 import hashlib
 import os
 from pathlib import Path
+from typing import Iterable, Iterator, Optional
 import zipfile
 
 import numpy as np
 
+from flectofold_model._validate import FloatArray
 from flectofold_model.actuation.cushion_map import CushionMap, distinct_panels
 from flectofold_model.actuation.statics import ActuatedPanel
 from flectofold_model.structure.comparison import closure_apex_folds_rad
-from flectofold_model.structure.panel import PanelMesh, structural_path
+from flectofold_model.structure.panel import (PanelMesh, Progress, structural_path,
+                                              StructuralPath)
 
 _PACKAGE = Path(__file__).resolve().parent
 #: Environment variable naming the cache directory (default ``~/.cache/flectofold/structure``).
@@ -39,13 +42,13 @@ CACHE_ENVIRONMENT = 'FLECTOFOLD_STRUCTURE_CACHE'
 _FIELDS = ('pressure_pa', 'volume_m3', 'compliance_m3_per_pa', 'fold_angle_rad')
 
 
-def cache_directory():
+def cache_directory() -> Path:
     """Return the directory the structural tables are cached in (created when written)."""
     configured = os.environ.get(CACHE_ENVIRONMENT)
     return Path(configured) if configured else Path.home() / '.cache' / 'flectofold' / 'structure'
 
 
-def cache_key(actuated, mesh, samples):
+def cache_key(actuated: ActuatedPanel, mesh: PanelMesh, samples: int) -> str:
     """Digest of a panel design, its mesh, the closures and the structure's source files."""
     digest = hashlib.sha256(repr((actuated, mesh, samples)).encode())
     for path in sorted(_PACKAGE.glob('*.py')):
@@ -58,8 +61,9 @@ class NotCached(ValueError):
     """A structural map asked for without tracing (``trace=False``) is not in the cache."""
 
 
-def structural_tables(actuated, mesh=PanelMesh(), samples=129, cache=True, progress=None,
-                      trace=True):
+def structural_tables(actuated: ActuatedPanel, mesh: PanelMesh = PanelMesh(), samples: int = 129,
+                      cache: bool = True, progress: Optional[Progress] = None,
+                      trace: bool = True) -> tuple[FloatArray, ...]:
     """Pressure, volume, compliance and apex fold (S,) of a quad panel at ``samples`` closures.
 
     Parameters
@@ -115,8 +119,9 @@ def structural_tables(actuated, mesh=PanelMesh(), samples=129, cache=True, progr
     return tables
 
 
-def structural_cushion_map(panels, mesh=PanelMesh(), samples=129, cache=True, trace=True,
-                           progress=None):
+def structural_cushion_map(panels: Iterable[ActuatedPanel], mesh: PanelMesh = PanelMesh(),
+                           samples: int = 129, cache: bool = True, trace: bool = True,
+                           progress: Optional[Progress] = None) -> CushionMap:
     """Return the :class:`~..actuation.cushion_map.CushionMap` of quad panels from the structure.
 
     Panels of one design share one path (and one cache entry); ``cache``, ``trace`` and
@@ -130,7 +135,8 @@ def structural_cushion_map(panels, mesh=PanelMesh(), samples=129, cache=True, tr
     return CushionMap.from_tables([np.stack(column) for column in zip(*tables)], row)
 
 
-def _from_path(actuated, path, samples):
+def _from_path(actuated: ActuatedPanel, path: StructuralPath,
+               samples: int) -> tuple[FloatArray, ...]:
     if path.ended != 'closed':
         raise ValueError(f'the panel does not close in the structure ({path.ended}): no '
                          f'structural cushion map')
@@ -156,7 +162,7 @@ def _from_path(actuated, path, samples):
 
 
 @contextlib.contextmanager
-def _entry_lock(path):
+def _entry_lock(path: Path) -> Iterator[None]:
     """Hold an exclusive lock on a cache entry; without a writable cache, no lock."""
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
@@ -172,7 +178,7 @@ def _entry_lock(path):
             fcntl.flock(lock, fcntl.LOCK_UN)
 
 
-def _read(path, samples):
+def _read(path: Path, samples: int) -> Optional[tuple[FloatArray, ...]]:
     """Return cached tables, or None when absent or not whole (then they are recomputed)."""
     try:
         with np.load(path) as data:
@@ -184,7 +190,7 @@ def _read(path, samples):
     return tables
 
 
-def _write(path, tables):
+def _write(path: Path, tables: tuple[FloatArray, ...]) -> None:
     """Write the tables atomically: a reader never sees half a file.
 
     A cache that cannot be written is skipped; the tables are still returned.
@@ -192,7 +198,8 @@ def _write(path, tables):
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
         partial = path.with_suffix(f'.{os.getpid()}.partial.npz')
-        np.savez(partial, **dict(zip(_FIELDS, tables)))
+        # numpy's stubs match the keyword arrays against allow_pickle too
+        np.savez(partial, **dict(zip(_FIELDS, tables)))  # type: ignore[arg-type]
         os.replace(partial, path)
     except OSError:
         pass

@@ -22,13 +22,17 @@ stiffness); the others are central differences of the analytic gradients, elemen
 quadratic to the residuals the path solver asks for.
 """
 
+from typing import Callable, cast
+
 import numpy as np
+
+from flectofold_model._validate import FloatArray
 
 #: Step of the central differences of the element Hessians [m, or rad for rotations].
 HESSIAN_STEP_M = 1e-7
 
 
-def membrane_reference(reference_xy):
+def membrane_reference(reference_xy: FloatArray) -> tuple[FloatArray, FloatArray]:
     """Inverse reference edge matrices ``(m, 2, 2)`` and reference areas ``(m,)`` [m2].
 
     ``reference_xy`` holds the flat corners ``(m, 3, 2)``, counter-clockwise.
@@ -38,10 +42,11 @@ def membrane_reference(reference_xy):
     area = 0.5 * np.linalg.det(edges)
     if np.any(area <= 0.0):
         raise ValueError('membrane triangles must be counter-clockwise with positive area')
-    return np.linalg.inv(edges), area
+    return cast(FloatArray, np.linalg.inv(edges)), area  # float64 in, float64 out
 
 
-def membrane_energy(corners, inverse, area, modulus_n_per_m, poisson):
+def membrane_energy(corners: FloatArray, inverse: FloatArray, area: FloatArray,
+                    modulus_n_per_m: FloatArray, poisson: FloatArray) -> FloatArray:
     """Strain energy of constant-strain triangles [J] (``modulus = E t / (1 - nu^2)``)."""
     strain = _green_strain(corners, inverse)
     trace = strain[:, 0, 0] + strain[:, 1, 1]
@@ -49,7 +54,8 @@ def membrane_energy(corners, inverse, area, modulus_n_per_m, poisson):
     return area * 0.5 * modulus_n_per_m * ((1.0 - poisson) * squared + poisson * trace**2)
 
 
-def membrane_gradient(corners, inverse, area, modulus_n_per_m, poisson):
+def membrane_gradient(corners: FloatArray, inverse: FloatArray, area: FloatArray,
+                      modulus_n_per_m: FloatArray, poisson: FloatArray) -> FloatArray:
     """Gradient of :func:`membrane_energy` with respect to the corners ``(m, 3, 3)`` [N]."""
     deformation = _deformation(corners, inverse)
     strain = 0.5 * (np.einsum('mki,mkj->mij', deformation, deformation) - np.eye(2))
@@ -64,7 +70,8 @@ def membrane_gradient(corners, inverse, area, modulus_n_per_m, poisson):
     return gradient
 
 
-def membrane_hessian(corners, inverse, area, modulus_n_per_m, poisson):
+def membrane_hessian(corners: FloatArray, inverse: FloatArray, area: FloatArray,
+                     modulus_n_per_m: FloatArray, poisson: FloatArray) -> FloatArray:
     """Hessian of :func:`membrane_energy` ``(m, 9, 9)``, corners' coordinates node by node.
 
     With ``F = X B`` (``B`` the reference shape gradients of the three corners, ``(3, 2)``),
@@ -95,24 +102,24 @@ def membrane_hessian(corners, inverse, area, modulus_n_per_m, poisson):
 _CORNER_EDGES = np.array([[-1.0, -1.0], [1.0, 0.0], [0.0, 1.0]])
 
 
-def membrane_principal_strain(corners, inverse):
+def membrane_principal_strain(corners: FloatArray, inverse: FloatArray) -> FloatArray:
     """Principal Green-Lagrange strains ``(m, 2)`` of triangles, largest magnitude first."""
-    values = np.linalg.eigvalsh(_green_strain(corners, inverse))
+    values = cast(FloatArray, np.linalg.eigvalsh(_green_strain(corners, inverse)))  # float64
     order = np.argsort(-np.abs(values), axis=1)
     return np.take_along_axis(values, order, axis=1)
 
 
-def _deformation(corners, inverse):
+def _deformation(corners: FloatArray, inverse: FloatArray) -> FloatArray:
     edges = np.stack([corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]], axis=-1)
     return edges @ inverse
 
 
-def _green_strain(corners, inverse):
+def _green_strain(corners: FloatArray, inverse: FloatArray) -> FloatArray:
     deformation = _deformation(corners, inverse)
     return 0.5 * (np.einsum('mki,mkj->mij', deformation, deformation) - np.eye(2))
 
 
-def dihedral_angle(corners):
+def dihedral_angle(corners: FloatArray) -> FloatArray:
     """Signed dihedral angles of hinges ``(m,)`` [rad], 0 when the two triangles are flat.
 
     A hinge's corners are ``(edge start, edge end, wing of triangle A, wing of triangle B)``;
@@ -126,19 +133,19 @@ def dihedral_angle(corners):
     return np.arctan2(sine, cosine)
 
 
-def _hinge_vectors(corners):
+def _hinge_vectors(corners: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]:
     edge = corners[:, 1] - corners[:, 0]
     normal_a = cross_rows(edge, corners[:, 2] - corners[:, 0])
     normal_b = cross_rows(corners[:, 3] - corners[:, 0], edge)
     return edge, normal_a, normal_b
 
 
-def prism_volume(corners, base_z_m):
+def prism_volume(corners: FloatArray, base_z_m: float) -> FloatArray:
     """Volume between surface triangles and the plane ``z = base_z_m`` ``(m,)`` [m3]."""
     return _projected_area(corners) * (corners[:, :, 2].mean(axis=1) - base_z_m)
 
 
-def prism_gradient(corners, base_z_m):
+def prism_gradient(corners: FloatArray, base_z_m: float) -> FloatArray:
     """Gradient of :func:`prism_volume` ``(m, 3, 3)`` [m2]: the load per pascal."""
     x, y = corners[:, :, 0], corners[:, :, 1]
     height = corners[:, :, 2].mean(axis=1) - base_z_m
@@ -150,13 +157,14 @@ def prism_gradient(corners, base_z_m):
     return gradient
 
 
-def _projected_area(corners):
+def _projected_area(corners: FloatArray) -> FloatArray:
     x, y = corners[:, :, 0], corners[:, :, 1]
     return 0.5 * ((x[:, 1] - x[:, 0]) * (y[:, 2] - y[:, 0])
                   - (x[:, 2] - x[:, 0]) * (y[:, 1] - y[:, 0]))
 
 
-def finite_difference_hessian(gradient, local, step=HESSIAN_STEP_M):
+def finite_difference_hessian(gradient: Callable[[FloatArray], FloatArray], local: FloatArray,
+                              step: float = HESSIAN_STEP_M) -> FloatArray:
     """Central-difference Hessians ``(m, k, k)`` of an element gradient function.
 
     ``gradient(local)`` maps the elements' local unknowns ``(m, k)`` to ``(m, k)``; the
@@ -173,7 +181,7 @@ def finite_difference_hessian(gradient, local, step=HESSIAN_STEP_M):
     return 0.5 * (hessian + np.swapaxes(hessian, 1, 2))
 
 
-def cross_rows(a, b):
+def cross_rows(a: FloatArray, b: FloatArray) -> FloatArray:
     """Row-wise cross product of ``(m, 3)`` arrays (``np.cross`` without its axis handling)."""
     return np.stack([a[:, 1] * b[:, 2] - a[:, 2] * b[:, 1],
                      a[:, 2] * b[:, 0] - a[:, 0] * b[:, 2],

@@ -12,18 +12,28 @@ a process must start in seconds; the ``facade`` bringup and ``structure_cache`` 
 The energy choice (the default) keeps each panel's own statics.
 """
 
+from typing import cast, Optional, TYPE_CHECKING
+
 import numpy as np
 
+from flectofold_model._validate import FloatArray
 from flectofold_model.actuation import actuated_like, ATMOSPHERIC_PRESSURE_PA
 from flectofold_model.actuation.cushion_map import CushionMap
+from flectofold_model.actuation.static_model import StaticActuationModel
+from flectofold_model.actuation.statics import ActuatedPanel
 from flectofold_model.facade.footprint import representative_index
 from flectofold_model.structure.cushion_tables import NotCached, structural_cushion_map
+from flectofold_model.structure.panel import Progress
+
+if TYPE_CHECKING:  # a facade's description loads where a facade is read
+    from flectofold_model.facade.description import Facade
 
 #: What to do when a structural map is not cached: the command that computes it.
 WARM_UP = 'structure_cache --facade FILE'
 
 
-def facade_cushion_map(facade, model, trace=True, progress=None):
+def facade_cushion_map(facade: 'Facade', model: StaticActuationModel, trace: bool = True,
+                       progress: Optional[Progress] = None) -> CushionMap:
     """Return the :class:`CushionMap` of ``model``'s panels (N) as ``facade`` chooses.
 
     Parameters
@@ -44,13 +54,15 @@ def facade_cushion_map(facade, model, trace=True, progress=None):
     return median_structural_map(facade, len(model), trace, progress)
 
 
-def median_structural_map(facade, count=1, trace=True, progress=None):
+def median_structural_map(facade: 'Facade', count: int = 1, trace: bool = True,
+                          progress: Optional[Progress] = None) -> CushionMap:
     """Return the structural map of ``facade``'s median panel for ``count`` panels.
 
     ``trace`` and ``progress`` as for :func:`facade_cushion_map`.
     """
     median = representative_index(facade)
-    panel = actuated_like(facade.panels[median])
+    # a quad panel: a facade's description takes the structural map for quad panels only
+    panel = cast(ActuatedPanel, actuated_like(facade.panels[median]))
     try:
         return structural_cushion_map([panel] * count, trace=trace, progress=progress)
     except NotCached as error:
@@ -61,7 +73,7 @@ def median_structural_map(facade, count=1, trace=True, progress=None):
                         f'its panels)') from None
 
 
-def structural_close_air_nl(facade, dead_volume_m3):
+def structural_close_air_nl(facade: 'Facade', dead_volume_m3: float) -> FloatArray:
     """Free air [NL] (N,) that closes each panel from open, by the facade's structural map.
 
     ``(p_closed V_closed - p_atm V_open) / p_atm`` with absolute pressures and the tubing's

@@ -35,19 +35,24 @@ two columns of cells beside each apex.
 
 from dataclasses import dataclass
 import math
+from typing import Optional, TYPE_CHECKING
 
 import numpy as np
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
+from flectofold_model._validate import FloatArray
 from flectofold_model.kinematics.hexagon_fold_lines import fold_line_spline
 from flectofold_model.kinematics.hexagon_panel import (hexagon_radius_m, HexagonBatch,
-                                                       SECTOR_RAD)
+                                                       HexagonPanel, SECTOR_RAD)
 from flectofold_model.structure.panel import (band_fold_angles_rad, check_mesh_counts,
                                               checker_triangles, FLAP, HINGE, MIDRIB,
-                                              trace_panel_path)
+                                              Progress, StructuralPath, trace_panel_path)
 from flectofold_model.structure.sheet import Sheet
+
+if TYPE_CHECKING:  # the hexagon's statics load when used
+    from flectofold_model.actuation.hexagon_statics import HexagonActuatedPanel
 
 #: Nodes closer than this fraction of the circumradius are one node [-].
 MERGE_TOLERANCE = 1e-9
@@ -68,7 +73,7 @@ class HexagonMesh:
     flap_rows: int = 6
     """Rows across each flap."""
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         check_mesh_counts(self)
 
 
@@ -90,7 +95,7 @@ class HexagonSheet:
     """Nodes of the triangle vertices ``T_0, T_1, T_2``."""
     centre_node: int
     """Node of the centre point ``C``."""
-    geometry: object
+    geometry: HexagonPanel
     """The :class:`~..kinematics.hexagon_panel.HexagonPanel` meshed."""
     fold_line_xy_m: np.ndarray
     """Dense points ``(3, P, 2)`` of the drawn fold lines [m]."""
@@ -98,36 +103,36 @@ class HexagonSheet:
     """In-plane unit normals ``(3, P, 2)`` of the drawn fold lines, away from the centre."""
 
     @property
-    def hinge_width_m(self):
+    def hinge_width_m(self) -> float:
         """Width of the hinge bands [m]."""
         return self.geometry.hinge_width_m
 
-    def outward_xy(self, points_xy_m):
+    def outward_xy(self, points_xy_m: FloatArray) -> FloatArray:
         """In-plane unit normal of the nearest drawn fold line at points, away from the centre."""
         lines = self.fold_line_xy_m.reshape(-1, 2)
         _, nearest = cKDTree(lines).query(points_xy_m)
         return self.fold_line_outward_xy.reshape(-1, 2)[nearest]
 
-    def fold_angles_rad(self, positions_m):
+    def fold_angles_rad(self, positions_m: FloatArray) -> FloatArray:
         """Fold angle across each hinge band along its rays ``(3 * columns,)`` [rad]."""
         return np.concatenate([band_fold_angles_rad(grid, self.inner_row, self.outer_row,
                                                     positions_m) for grid in self.grids])
 
-    def _per_sector(self, folds):
+    def _per_sector(self, folds: FloatArray) -> FloatArray:
         return folds.reshape(folds.shape[:-1] + (3, -1))
 
-    def apex_fold_rad(self, folds):
+    def apex_fold_rad(self, folds: FloatArray) -> FloatArray:
         """Fold at the apexes: the two columns beside each, mean over the sectors (last axis)."""
         sectors = self._per_sector(folds)
         middle = sectors.shape[-1] // 2
         return 0.5 * (sectors[..., middle - 1] + sectors[..., middle]).mean(axis=-1)
 
-    def support_fold_rad(self, folds):
+    def support_fold_rad(self, folds: FloatArray) -> FloatArray:
         """Fold in the cells next to the vertices, mean over both ends and sectors."""
         sectors = self._per_sector(folds)
         return 0.5 * (sectors[..., 0] + sectors[..., -1]).mean(axis=-1)
 
-    def support_travel_m(self, open_positions_m, positions_m):
+    def support_travel_m(self, open_positions_m: FloatArray, positions_m: FloatArray) -> float:
         """Mean travel of the triangle vertices toward the centre since open [m]."""
         open_xy = open_positions_m[self.vertex_nodes, :2]
         now_xy = positions_m[self.vertex_nodes, :2]
@@ -136,14 +141,14 @@ class HexagonSheet:
                              - np.linalg.norm(now_xy - centre, axis=1)))
 
 
-def _fold_line(geometry, parameter):
+def _fold_line(geometry: HexagonPanel, parameter: FloatArray) -> tuple[FloatArray, FloatArray]:
     """Points, unit tangents (P, 2) of fold line 0 at spline parameters (P,)."""
     spline = fold_line_spline(HexagonBatch.from_panels([geometry]))
     tangent = spline.derivative()(parameter)[:, 0]
     return spline(parameter)[:, 0], tangent / np.linalg.norm(tangent, axis=1, keepdims=True)
 
 
-def _sector_points(geometry, mesh):
+def _sector_points(geometry: HexagonPanel, mesh: HexagonMesh) -> FloatArray:
     """Flat points (columns + 1, rows + 1, 2) of sector 0, columns from T_1 to T_0."""
     parameter = np.linspace(1.0, 0.0, mesh.columns + 1)
     point, tangent = _fold_line(geometry, parameter)
@@ -166,14 +171,15 @@ def _sector_points(geometry, mesh):
     return radii[:, :, None] * ray[:, None, :]
 
 
-def _turned(points, turns):
+def _turned(points: FloatArray, turns: int) -> FloatArray:
     angle = turns * SECTOR_RAD
     rotation = np.array([[math.cos(angle), -math.sin(angle)],
                          [math.sin(angle), math.cos(angle)]])
     return points @ rotation.T
 
 
-def build_hexagon_sheet(panel, mesh=HexagonMesh()):
+def build_hexagon_sheet(panel: 'HexagonActuatedPanel',
+                        mesh: HexagonMesh = HexagonMesh()) -> HexagonSheet:
     """Mesh a :class:`~..actuation.hexagon_statics.HexagonActuatedPanel` into a flat sheet."""
     geometry = panel.geometry
     sector = _sector_points(geometry, mesh)
@@ -232,8 +238,10 @@ def build_hexagon_sheet(panel, mesh=HexagonMesh()):
                         lines, normals)
 
 
-def hexagon_structural_path(panel, mesh=HexagonMesh(), target_fold_rad=None, steps=24,
-                            air_estimate_m3=None, tolerance=1e-8, progress=None):
+def hexagon_structural_path(panel: 'HexagonActuatedPanel', mesh: HexagonMesh = HexagonMesh(),
+                            target_fold_rad: Optional[float] = None, steps: int = 24,
+                            air_estimate_m3: Optional[float] = None, tolerance: float = 1e-8,
+                            progress: Optional[Progress] = None) -> StructuralPath:
     """Trace a hexagonal panel's equilibrium path under rising cushion volume.
 
     The parameters are those of :func:`~.panel.structural_path`; the defaults come from the

@@ -20,10 +20,11 @@ import math
 import numpy as np
 
 from flectofold_model._compiled import inline_kernel, kernel
+from flectofold_model._validate import BoolArray, FloatArray, IntArray
 
 
 @inline_kernel
-def _dihedral(x, slots, out_gradient):
+def _dihedral(x: FloatArray, slots: IntArray, out_gradient: FloatArray) -> float:
     """Signed dihedral angle of the hinge at ``slots`` of ``x`` (18 coordinates) [rad].
 
     Writes its gradient, 12 values in the order of ``slots``, into ``out_gradient``.
@@ -75,7 +76,7 @@ def _dihedral(x, slots, out_gradient):
 
 
 @inline_kernel
-def _hinge_slots(edge, slots):
+def _hinge_slots(edge: int, slots: IntArray) -> None:
     slots[0] = (edge + 1) % 3
     slots[1] = (edge + 2) % 3
     slots[2] = edge
@@ -83,7 +84,8 @@ def _hinge_slots(edge, slots):
 
 
 @inline_kernel
-def _tilts(x, interior, side, beta, d_beta, slots, gradient):
+def _tilts(x: FloatArray, interior: BoolArray, side: FloatArray, beta: FloatArray,
+           d_beta: FloatArray, slots: IntArray, gradient: FloatArray) -> None:
     """Tilts ``beta`` (3) and their gradients ``d_beta`` (3, 21) of one face's unknowns."""
     for i in range(3):
         for k in range(21):
@@ -100,7 +102,8 @@ def _tilts(x, interior, side, beta, d_beta, slots, gradient):
 
 
 @inline_kernel
-def _moments(quadratic, beta, rest_sine, moment):
+def _moments(quadratic: FloatArray, beta: FloatArray, rest_sine: FloatArray,
+             moment: FloatArray) -> None:
     """``mu = 2 M s`` of one face, ``s = sin(beta) - sin(beta0)``, into ``moment`` (3)."""
     for i in range(3):
         total = 0.0
@@ -110,7 +113,8 @@ def _moments(quadratic, beta, rest_sine, moment):
 
 
 @kernel
-def bending_gradient(local, interior, side, quadratic, rest_sine):
+def bending_gradient(local: FloatArray, interior: BoolArray, side: FloatArray,
+                     quadratic: FloatArray, rest_sine: FloatArray) -> FloatArray:
     """Gradient of the mid-edge bending energy per face ``(m, 21)`` of ``local`` ``(m, 21)``."""
     count = local.shape[0]
     out = np.zeros((count, 21))
@@ -131,7 +135,8 @@ def bending_gradient(local, interior, side, quadratic, rest_sine):
 
 
 @kernel
-def bending_hessian(local, interior, side, quadratic, rest_sine, step):
+def bending_hessian(local: FloatArray, interior: BoolArray, side: FloatArray,
+                    quadratic: FloatArray, rest_sine: FloatArray, step: float) -> FloatArray:
     """Hessian of the mid-edge bending energy per face ``(m, 21 * 21)``, row by row.
 
     ``2 ds^T M ds + sum_i mu_i (cos(beta_i) d2beta_i - sin(beta_i) dbeta_i dbeta_i^T)``,

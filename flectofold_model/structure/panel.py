@@ -31,11 +31,65 @@ total rotation the hinge zone carries, which is what the kinematic model's fold 
 """
 
 from dataclasses import dataclass, fields, replace
+from typing import Any, Callable, cast, ClassVar, Optional, Protocol, TYPE_CHECKING
 
 import numpy as np
 
-from flectofold_model.structure.sheet import (PathError, Sheet, SheetSystem,
+from flectofold_model._validate import FloatArray, IntArray
+from flectofold_model.structure.sheet import (PathError, PathPoint, Sheet, SheetSystem,
                                               solve_prescribed)
+
+if TYPE_CHECKING:  # the statics' module loads when used
+    from flectofold_model.actuation.statics import ActuatedPanel
+    from flectofold_model.kinematics.panel import PanelGeometry
+
+
+class MeshedPanel(Protocol):
+    """A meshed panel of either kind as the path reads it: a :class:`PanelSheet` or a hexagon's.
+
+    Protocols, here and in :class:`MeshCounts`: the hexagon's module imports this one.
+    """
+
+    @property
+    def sheet(self) -> Sheet:
+        """The shell of the panel."""
+
+    @property
+    def tip_node(self) -> int:
+        """Node of a flap tip."""
+
+    @property
+    def hinge_width_m(self) -> float:
+        """Width of the hinge bands [m]."""
+
+    def outward_xy(self, points_xy_m: FloatArray) -> FloatArray:
+        """In-plane unit normal of the nearer drawn fold line at points, away from the axis."""
+
+    def fold_angles_rad(self, positions_m: FloatArray) -> FloatArray:
+        """Fold angle across the hinge bands [rad]."""
+
+    def apex_fold_rad(self, folds: FloatArray) -> FloatArray:
+        """Fold at the crease apex [rad]."""
+
+    def support_fold_rad(self, folds: FloatArray) -> FloatArray:
+        """Fold next to the supports [rad]."""
+
+    def support_travel_m(self, open_positions_m: FloatArray, positions_m: FloatArray) -> float:
+        """Travel of the supports since the open state [m]."""
+
+
+class MeshCounts(Protocol):
+    """A structured mesh's element counts: a dataclass of integers with ``columns``."""
+
+    __dataclass_fields__: ClassVar[dict[str, Any]]
+
+    @property
+    def columns(self) -> int:
+        """Elements along the mid-rib or a fold line (even)."""
+
+
+#: Called after every equilibrium of a path with its pressure [Pa] and apex fold angle [rad].
+Progress = Callable[[float, float], object]
 
 #: Zone labels of the panel's triangles.
 MIDRIB, HINGE, FLAP = 0, 1, 2
@@ -51,7 +105,7 @@ MOULD_STEPS = 2
 AIR_LIMIT_FACTOR = 2.0
 
 
-def check_mesh_counts(mesh):
+def check_mesh_counts(mesh: MeshCounts) -> None:
     """Refuse a structured mesh's counts that cannot be meshed (either panel kind).
 
     Every field an integer of at least 1; ``columns`` even and at least 4, so that the mesh
@@ -78,10 +132,10 @@ class PanelMesh:
     flap_rows: int = 8
     """Rows across each flap."""
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         check_mesh_counts(self)
 
-    def refined(self, factor):
+    def refined(self, factor: int) -> 'PanelMesh':
         """Return the same mesh with every count multiplied by ``factor``."""
         return PanelMesh(self.columns * factor, self.midrib_rows * factor,
                          self.hinge_rows * factor, self.flap_rows * factor)
@@ -102,15 +156,15 @@ class PanelSheet:
     """Row of the upper hinge band's outer edge (flap side)."""
     tip_node: int
     """Node of flap tip A: mid-span of the +y flap edge."""
-    geometry: object
+    geometry: 'PanelGeometry'
     """The :class:`~..kinematics.panel.PanelGeometry` meshed."""
 
     @property
-    def hinge_width_m(self):
+    def hinge_width_m(self) -> float:
         """Width of the hinge bands [m]."""
         return self.geometry.hinge_width_m
 
-    def outward_xy(self, points_xy_m):
+    def outward_xy(self, points_xy_m: FloatArray) -> FloatArray:
         """In-plane unit normal of the nearer drawn fold line at points, away from the axis."""
         geometry = self.geometry
         centre_y = np.sign(points_xy_m[:, 1]) * (
@@ -118,25 +172,25 @@ class PanelSheet:
         outward = np.column_stack([points_xy_m[:, 0], points_xy_m[:, 1] - centre_y])
         return outward / np.linalg.norm(outward, axis=1, keepdims=True)
 
-    def fold_angles_rad(self, positions_m):
+    def fold_angles_rad(self, positions_m: FloatArray) -> FloatArray:
         """Fold angle across the upper hinge band at each column of cells [rad]."""
         return band_fold_angles_rad(self.grid, self.inner_row, self.outer_row, positions_m)
 
-    def apex_fold_rad(self, folds):
+    def apex_fold_rad(self, folds: FloatArray) -> FloatArray:
         """Fold at mid-span: the mean of the two columns of cells beside it (last axis)."""
         return _middle(folds)
 
-    def support_fold_rad(self, folds):
+    def support_fold_rad(self, folds: FloatArray) -> FloatArray:
         """Fold in the cells next to the supports, mean of both ends (last axis)."""
         return 0.5 * (folds[..., 0] + folds[..., -1])
 
-    def support_travel_m(self, open_positions_m, positions_m):
+    def support_travel_m(self, open_positions_m: FloatArray, positions_m: FloatArray) -> float:
         """Travel of the sliding support C toward B since the open state [m]."""
         slider = self.grid[-1, self.grid.shape[1] // 2]
         return float(open_positions_m[slider, 0] - positions_m[slider, 0])
 
 
-def build_panel_sheet(panel, mesh=PanelMesh()):
+def build_panel_sheet(panel: 'ActuatedPanel', mesh: PanelMesh = PanelMesh()) -> PanelSheet:
     """Mesh an :class:`~..actuation.statics.ActuatedPanel` into a flat :class:`PanelSheet`."""
     geometry = panel.geometry
     half_length = geometry.length_m / 2
@@ -186,7 +240,7 @@ def build_panel_sheet(panel, mesh=PanelMesh()):
                       int(grid[mesh.columns // 2, -1]), geometry)
 
 
-def checker_triangles(grid):
+def checker_triangles(grid: IntArray) -> tuple[IntArray, IntArray]:
     """Counter-clockwise triangles of a structured grid, diagonals in a checker pattern."""
     columns, rows = grid.shape[0] - 1, grid.shape[1] - 1
     i, j = np.meshgrid(np.arange(columns), np.arange(rows), indexing='ij')
@@ -200,7 +254,8 @@ def checker_triangles(grid):
     return np.concatenate([first, second]), np.concatenate([j, j])
 
 
-def mould_prefold(panel_sheet, prefold_rad):
+def mould_prefold(panel_sheet: MeshedPanel,
+                  prefold_rad: float) -> tuple[Sheet, FloatArray, float]:
     """Give the hinge bands the moulded pre-fold and return the sheet and its rest unknowns.
 
     Returns
@@ -252,10 +307,11 @@ def mould_prefold(panel_sheet, prefold_rad):
     # The mould's shape is the stress-free state: its curvatures and its metric.
     moulded = replace(sheet, rest_tilt_sine=first.tilt_sine,
                       rest_positions_m=first.positions_m)
-    return moulded, first.unknowns, first.membrane_energy_j
+    return moulded, cast(FloatArray, first.unknowns), first.membrane_energy_j  # always set
 
 
-def band_fold_angles_rad(grid, inner_row, outer_row, positions_m):
+def band_fold_angles_rad(grid: IntArray, inner_row: int, outer_row: int,
+                         positions_m: FloatArray) -> FloatArray:
     """Fold angle across a hinge band at each column of cells ``(columns,)`` [rad].
 
     ``grid`` holds node indices ``(columns + 1, rows + 1)`` with rows running from the driven
@@ -280,7 +336,7 @@ def band_fold_angles_rad(grid, inner_row, outer_row, positions_m):
     return np.sign(rise) * np.arccos(cosine)
 
 
-def fold_angles_rad(panel_sheet, positions_m):
+def fold_angles_rad(panel_sheet: MeshedPanel, positions_m: FloatArray) -> FloatArray:
     """Fold angle across the upper hinge band at each column of cells ``(columns,)`` [rad].
 
     From the normal of the mid-rib face next to the band's inner edge to that of the flap face
@@ -289,12 +345,12 @@ def fold_angles_rad(panel_sheet, positions_m):
     return panel_sheet.fold_angles_rad(positions_m)
 
 
-def apex_fold_angle_rad(panel_sheet, positions_m):
+def apex_fold_angle_rad(panel_sheet: MeshedPanel, positions_m: FloatArray) -> float:
     """Fold angle at the apex (mid-span) [rad]."""
     return float(panel_sheet.apex_fold_rad(panel_sheet.fold_angles_rad(positions_m)))
 
 
-def _middle(folds):
+def _middle(folds: FloatArray) -> FloatArray:
     """Mean of the two columns of cells beside the middle, along the last axis of ``folds``."""
     middle = folds.shape[-1] // 2
     return 0.5 * (folds[..., middle - 1] + folds[..., middle])
@@ -340,20 +396,20 @@ class StructuralPath:
     """Nodes of the mesh."""
     moulding_energy_j: float
     """Membrane energy the moulded shape would hold on the flat pattern's metric [J]."""
-    positions_m: np.ndarray = None
+    positions_m: Optional[np.ndarray] = None
     """Node positions at every equilibrium ``(points, nodes, 3)`` [m]."""
-    surface_strain: np.ndarray = None
+    surface_strain: Optional[np.ndarray] = None
     """Peak surface strain of every triangle at every equilibrium ``(points, triangles)``
     (bending from the moulded state times half the thickness plus the membrane strain)."""
-    triangles: np.ndarray = None
+    triangles: Optional[np.ndarray] = None
     """Node indices of the mesh's triangles ``(triangles, 3)``, counter-clockwise."""
-    open_volume_m3: float = None
+    open_volume_m3: Optional[float] = None
     """Cushion volume of the open state, between the loaded footprint and the back [m3]."""
-    zone: np.ndarray = None
+    zone: Optional[np.ndarray] = None
     """Zone of each triangle (:data:`MIDRIB`, :data:`HINGE`, :data:`FLAP`)."""
 
     @property
-    def limit_points(self):
+    def limit_points(self) -> IntArray:
         """Indices of pressure maxima (limit points).
 
         The last equilibrium stable at its pressure before one that is not; beyond it a
@@ -363,8 +419,10 @@ class StructuralPath:
         return np.flatnonzero(stable[:-1] & ~stable[1:])
 
 
-def structural_path(panel, mesh=PanelMesh(), target_fold_rad=None, steps=24,
-                    air_estimate_m3=None, tolerance=1e-8, progress=None):
+def structural_path(panel: 'ActuatedPanel', mesh: PanelMesh = PanelMesh(),
+                    target_fold_rad: Optional[float] = None, steps: int = 24,
+                    air_estimate_m3: Optional[float] = None, tolerance: float = 1e-8,
+                    progress: Optional[Progress] = None) -> StructuralPath:
     """Trace a quad panel's equilibrium path under rising cushion volume.
 
     Parameters
@@ -395,8 +453,9 @@ def structural_path(panel, mesh=PanelMesh(), target_fold_rad=None, steps=24,
                             target_fold_rad, air_estimate_m3, steps, tolerance, progress)
 
 
-def trace_panel_path(panel_sheet, prefold_rad, target_fold_rad, air_estimate_m3, steps=24,
-                     tolerance=1e-8, progress=None):
+def trace_panel_path(panel_sheet: MeshedPanel, prefold_rad: float, target_fold_rad: float,
+                     air_estimate_m3: float, steps: int = 24, tolerance: float = 1e-8,
+                     progress: Optional[Progress] = None) -> StructuralPath:
     """Mould a panel's pre-fold and trace its path until the apex fold reaches the target.
 
     ``panel_sheet`` is a meshed panel of either kind (:class:`PanelSheet`,
@@ -409,7 +468,7 @@ def trace_panel_path(panel_sheet, prefold_rad, target_fold_rad, air_estimate_m3,
     ended = ['closed']
     air_limit = AIR_LIMIT_FACTOR * air_estimate_m3
     try:
-        def reached(point):
+        def reached(point: PathPoint) -> bool:
             fold = apex_fold_angle_rad(panel_sheet, point.positions_m)
             if progress is not None:
                 progress(point.pressure_pa, fold)
@@ -429,17 +488,19 @@ def trace_panel_path(panel_sheet, prefold_rad, target_fold_rad, air_estimate_m3,
     return _path_from_points(panel_sheet, sheet, points, ended[0], moulding_energy)
 
 
-def _path_from_points(panel_sheet, sheet, points, ended, moulding_energy):
+def _path_from_points(panel_sheet: MeshedPanel, sheet: Sheet, points: list[PathPoint],
+                      ended: str, moulding_energy: float) -> StructuralPath:
     system = SheetSystem(sheet)
     folds = np.array([panel_sheet.fold_angles_rad(p.positions_m) for p in points])
     tip = np.array([p.positions_m[panel_sheet.tip_node] for p in points])
     half_thickness = 0.5 * sheet.thickness_m
     zones = {'midrib': MIDRIB, 'hinge': HINGE, 'flap': FLAP}
-    peaks = {name: [] for name in zones}
+    peaks: dict[str, list[float]] = {name: [] for name in zones}
     strains = []
     for point in points:
-        bending = np.abs(system.curvatures_per_m(point.unknowns, from_rest=True)[:, 0])
-        membrane = np.abs(system.membrane_strains(point.unknowns)[:, 0])
+        unknowns = cast(FloatArray, point.unknowns)  # trace_path gives every point its own
+        bending = np.abs(system.curvatures_per_m(unknowns, from_rest=True)[:, 0])
+        membrane = np.abs(system.membrane_strains(unknowns)[:, 0])
         surface = bending * half_thickness + membrane
         strains.append(surface)
         for name, zone in zones.items():

@@ -10,11 +10,14 @@ not positive definite beyond a limit point).
 """
 
 from dataclasses import dataclass
+from typing import Callable, Iterable, Optional
 
 import numpy as np
+import numpy.typing as npt
 from scipy.sparse import csc_matrix, identity
-from scipy.sparse.linalg import splu
+from scipy.sparse.linalg import splu, SuperLU
 
+from flectofold_model._validate import FloatArray, IntArray
 from flectofold_model.structure import elements
 from flectofold_model.structure.shell import MidEdgeBending
 
@@ -45,16 +48,16 @@ class Sheet:
     """Triangles the cushion presses on ``(m,)``, bool."""
     base_z_m: float
     """Height of the plane that holds the cushion's back [m] (below the sheet: negative)."""
-    zone: np.ndarray = None
+    zone: Optional[np.ndarray] = None
     """Optional label per triangle ``(m,)`` (e.g. 0 mid-rib, 1 hinge, 2 flap)."""
-    rest_tilt_sine: np.ndarray = None
+    rest_tilt_sine: Optional[np.ndarray] = None
     """Sines of the director tilts of the stress-free (moulded) shape ``(m, 3)``; None: the
     sheet is stress-free flat (see :mod:`.shell`)."""
-    rest_positions_m: np.ndarray = None
+    rest_positions_m: Optional[np.ndarray] = None
     """Node positions ``(n, 3)`` of the moulded shape whose triangles are the membrane's
     stress-free shapes; None: the flat pattern."""
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         xy = np.asarray(self.reference_xy_m, dtype=np.float64)
         triangles = np.asarray(self.triangles, dtype=np.int64)
         count = len(triangles)
@@ -85,23 +88,23 @@ class Sheet:
         _check_manifold(triangles)
 
     @property
-    def node_count(self):
+    def node_count(self) -> int:
         """Number of nodes."""
         return len(self.reference_xy_m)
 
     @property
-    def plate_stiffness_nm(self):
+    def plate_stiffness_nm(self) -> FloatArray:
         """``D = E t^3 / (12 (1 - nu^2))`` per triangle [N m]."""
         return (self.youngs_modulus_pa * self.thickness_m**3
                 / (12.0 * (1.0 - self.poisson_ratio**2)))
 
     @property
-    def reference_areas_m2(self):
+    def reference_areas_m2(self) -> FloatArray:
         """Flat triangle areas [m2]."""
         return membrane_data(self)[1]
 
 
-def _check_manifold(triangles):
+def _check_manifold(triangles: IntArray) -> None:
     """Refuse edges shared by more than two triangles or by two of opposite orientation."""
     local = np.array([[0, 1], [1, 2], [2, 0]])
     start = triangles[:, local[:, 0]].ravel()
@@ -116,7 +119,7 @@ def _check_manifold(triangles):
         raise ValueError('neighbouring triangles must have the same orientation')
 
 
-def membrane_data(sheet):
+def membrane_data(sheet: Sheet) -> tuple[FloatArray, FloatArray]:
     """Inverse reference edge matrices and areas of the sheet's triangles.
 
     The stress-free shape of each triangle is its flat pattern, or, for a moulded sheet
@@ -144,7 +147,7 @@ class SheetSystem:
     one rotation per edge (the mid-edge directors of :mod:`.shell`, all free).
     """
 
-    def __init__(self, sheet):
+    def __init__(self, sheet: Sheet) -> None:
         self.sheet = sheet
         self.inverse, self.area = membrane_data(sheet)
         self.membrane_modulus = (sheet.youngs_modulus_pa * sheet.thickness_m
@@ -165,7 +168,7 @@ class SheetSystem:
         reduced = np.full(self.size_all, -1)
         reduced[self.free] = np.arange(len(self.free))
 
-        def node_dofs(nodes_of):
+        def node_dofs(nodes_of: IntArray) -> IntArray:
             count, per = nodes_of.shape
             return (3 * nodes_of[:, :, None] + np.arange(3)).reshape(count, 3 * per)
 
@@ -189,17 +192,17 @@ class SheetSystem:
         self._size = size
         self.extent_m = float(np.ptp(sheet.reference_xy_m, axis=0).max())
 
-    def full(self, free_values):
+    def full(self, free_values: FloatArray) -> FloatArray:
         """Every unknown from the free ones."""
         full = self.reference.copy()
         full[self.free] = free_values
         return full
 
-    def positions(self, free_values):
+    def positions(self, free_values: FloatArray) -> FloatArray:
         """Node positions ``(n, 3)`` from the free unknowns [m]."""
         return self.full(free_values)[:3 * self.sheet.node_count].reshape(-1, 3)
 
-    def energies_j(self, free_values):
+    def energies_j(self, free_values: FloatArray) -> tuple[float, float]:
         """``(membrane, bending)`` strain energies [J]."""
         unknowns = self.full(free_values)
         positions = unknowns[:3 * self.sheet.node_count].reshape(-1, 3)
@@ -209,7 +212,7 @@ class SheetSystem:
         bending = self.bending.local_energy(unknowns[self._groups[1].dofs])
         return float(membrane.sum()), float(bending.sum())
 
-    def curvatures_per_m(self, free_values, from_rest=False):
+    def curvatures_per_m(self, free_values: FloatArray, from_rest: bool = False) -> FloatArray:
         """Principal curvatures of every face ``(m, 2)`` [1/m], largest magnitude first.
 
         With ``from_rest`` the change from the stress-free shape, which strains the laminate.
@@ -217,37 +220,37 @@ class SheetSystem:
         return self.bending.curvature_per_m(self.full(free_values)[self._groups[1].dofs],
                                             from_rest)
 
-    def membrane_strains(self, free_values):
+    def membrane_strains(self, free_values: FloatArray) -> FloatArray:
         """Principal membrane strains of every face ``(m, 2)``, largest magnitude first."""
         positions = self.positions(free_values)
         return elements.membrane_principal_strain(positions[self.sheet.triangles],
                                                   self.inverse)
 
-    def tilt_sine(self, free_values):
+    def tilt_sine(self, free_values: FloatArray) -> FloatArray:
         """Sines of every face's director tilts ``(m, 3)`` (a moulded shape's rest tilts)."""
         return self.bending.tilt_sine(self.full(free_values)[self._groups[1].dofs])
 
-    def volume_m3(self, free_values):
+    def volume_m3(self, free_values: FloatArray) -> float:
         """Volume under the loaded triangles down to the base plane [m3]."""
         positions = self.positions(free_values)
         return float(elements.prism_volume(positions[self.loaded_triangles],
                                            self.sheet.base_z_m).sum())
 
-    def _membrane_gradient(self, local):
+    def _membrane_gradient(self, local: FloatArray) -> FloatArray:
         corners = local.reshape(-1, 3, 3)
         return elements.membrane_gradient(corners, self.inverse, self.area,
                                           self.membrane_modulus,
                                           self.sheet.poisson_ratio).reshape(local.shape)
 
-    def _membrane_hessian(self, local):
+    def _membrane_hessian(self, local: FloatArray) -> FloatArray:
         return elements.membrane_hessian(local.reshape(-1, 3, 3), self.inverse, self.area,
                                          self.membrane_modulus, self.sheet.poisson_ratio)
 
-    def _prism_gradient(self, local):
+    def _prism_gradient(self, local: FloatArray) -> FloatArray:
         corners = local.reshape(-1, 3, 3)
         return elements.prism_gradient(corners, self.sheet.base_z_m).reshape(local.shape)
 
-    def gradients(self, free_values):
+    def gradients(self, free_values: FloatArray) -> tuple[FloatArray, FloatArray]:
         """Strain-energy gradient and volume gradient over the free unknowns."""
         unknowns = self.full(free_values)
         energy = np.zeros(self.size_all)
@@ -259,7 +262,7 @@ class SheetSystem:
                                   minlength=self.size_all)
         return energy[self.free], volume[self.free]
 
-    def hessians(self, free_values, pressure_pa):
+    def hessians(self, free_values: FloatArray, pressure_pa: float) -> csc_matrix:
         """Sparse ``H - p H_V`` over the free unknowns (CSC)."""
         unknowns = self.full(free_values)
         parts = []
@@ -276,7 +279,7 @@ class SheetSystem:
         return csc_matrix((data, self._indices, self._indptr), shape=(self._size, self._size))
 
 
-def factorise(matrix):
+def factorise(matrix: csc_matrix) -> SuperLU:
     """Sparse LU of a symmetric tangent: symmetric mode first, partial pivoting if it fails.
 
     The symmetric mode (minimum degree on ``A + A^T``, diagonal pivots) keeps the fill-in of
@@ -294,7 +297,7 @@ def factorise(matrix):
     return splu(matrix)
 
 
-def positive_definite_factor(matrix, max_shifts=20):
+def positive_definite_factor(matrix: csc_matrix, max_shifts: int = 20) -> SuperLU:
     """Factorise ``matrix + mu I`` with the least ``mu >= 0`` tried that is positive definite.
 
     ``mu`` is 0 where the tangent is positive definite (Newton's method); otherwise it starts
@@ -318,13 +321,13 @@ def positive_definite_factor(matrix, max_shifts=20):
     return factorise(matrix)
 
 
-def _symmetric_lu(matrix):
+def _symmetric_lu(matrix: csc_matrix) -> SuperLU:
     """Factorise in SuperLU's symmetric mode: minimum degree on ``A + A^T``, diagonal pivots."""
     return splu(matrix, permc_spec='MMD_AT_PLUS_A', diag_pivot_thresh=0.0,
                 options={'SymmetricMode': True})
 
 
-def _pivots(factor):
+def _pivots(factor: SuperLU) -> Optional[FloatArray]:
     """Return the pivots ``D`` of a symmetric-mode factor ``P H P^T = L D L^T``.
 
     Their signs are the tangent's inertia; None where SuperLU pivoted off the diagonal after
@@ -338,7 +341,9 @@ def _pivots(factor):
 class _Group:
     """One element kind: its unknowns, its gradient and where its Hessian entries go."""
 
-    def __init__(self, dofs, reduced, function, strain, hessian=None):
+    def __init__(self, dofs: IntArray, reduced: IntArray,
+                 function: Callable[[FloatArray], FloatArray], strain: int,
+                 hessian: Optional[Callable[[FloatArray], FloatArray]] = None) -> None:
         self.dofs = dofs
         self.function = function
         self.hessian = hessian
@@ -370,17 +375,18 @@ class PathPoint:
     """Newton iterations the step took."""
     residual_n: float
     """Largest out-of-balance force left at the free nodes [N]."""
-    unknowns: np.ndarray = None
+    unknowns: Optional[np.ndarray] = None
     """The free unknowns (coordinates and edge rotations) of this equilibrium."""
-    stable_at_pressure: bool = None
+    stable_at_pressure: Optional[bool] = None
     """True where the tangent is positive definite: stable with the pressure held (a
     pressure regulator); None where its inertia could not be read."""
-    stable_at_volume: bool = None
+    stable_at_volume: Optional[bool] = None
     """True where the tangent is positive definite on the fixed-volume directions: stable
     with the air in the cushion held (closed valves); None where unknown."""
 
 
-def tangent_inertia(system, values, pressure):
+def tangent_inertia(system: SheetSystem, values: FloatArray,
+                    pressure: float) -> Optional[tuple[int, float]]:
     """Negative eigenvalues of the tangent ``H - p H_V`` and ``g_V^T (H - p H_V)^-1 g_V``.
 
     From a symmetric-mode factorisation ``P H P^T = L D L^T`` (``D`` the diagonal of ``U``),
@@ -402,7 +408,8 @@ def tangent_inertia(system, values, pressure):
     return int(np.count_nonzero(pivots < 0.0)), float(curvature)
 
 
-def _stability(system, values, pressure):
+def _stability(system: SheetSystem, values: FloatArray,
+               pressure: float) -> tuple[Optional[bool], Optional[bool]]:
     """``(stable_at_pressure, stable_at_volume)`` from the inertia of the tangent.
 
     With the volume held, the bordered tangent has one negative eigenvalue from the constraint
@@ -419,14 +426,16 @@ def _stability(system, values, pressure):
 class PathError(RuntimeError):
     """The path solver could not find the next equilibrium, even with its smallest step."""
 
-    def __init__(self, message, points=()):
+    def __init__(self, message: str, points: Iterable[PathPoint] = ()) -> None:
         super().__init__(message)
         self.points = list(points)
         """The equilibria found before the solver stopped."""
 
 
-def trace_path(sheet, volume_step_m3, stop, max_steps=400, tolerance=1e-8,
-               min_step_fraction=1.0 / 64.0, max_iterations=40, start=None):
+def trace_path(sheet: Sheet, volume_step_m3: float, stop: Callable[[PathPoint], bool],
+               max_steps: int = 400, tolerance: float = 1e-8,
+               min_step_fraction: float = 1.0 / 64.0, max_iterations: int = 40,
+               start: Optional[npt.ArrayLike] = None) -> list[PathPoint]:
     """Follow the sheet's equilibrium from flat under rising cushion volume.
 
     Parameters
@@ -495,7 +504,9 @@ def trace_path(sheet, volume_step_m3, stop, max_steps=400, tolerance=1e-8,
     return points
 
 
-def _newton(system, values, pressure, target, tolerance, max_iterations, step):
+def _newton(system: SheetSystem, values: FloatArray, pressure: float, target: float,
+            tolerance: float, max_iterations: int,
+            step: float) -> Optional[tuple[FloatArray, float, int, float]]:
     """Newton's method on the bordered system; None when it does not converge.
 
     The tangent is factorised at the first iteration and kept while each iteration cuts the
@@ -555,15 +566,17 @@ class PrescribedEquilibrium:
     """Newton iterations."""
     curvatures_per_m: np.ndarray
     """Principal curvatures of every face ``(m, 2)`` [1/m]."""
-    unknowns: np.ndarray = None
+    unknowns: Optional[np.ndarray] = None
     """The free unknowns (coordinates and edge rotations) of this equilibrium."""
-    tilt_sine: np.ndarray = None
+    tilt_sine: Optional[np.ndarray] = None
     """Sines of every face's director tilts ``(m, 3)``: the rest tilts of a sheet moulded in
     this shape."""
 
 
-def solve_prescribed(sheet, held_positions_m, guess_positions_m, tolerance=1e-10,
-                     max_iterations=50, guess_unknowns=None):
+def solve_prescribed(sheet: Sheet, held_positions_m: npt.ArrayLike,
+                     guess_positions_m: npt.ArrayLike, tolerance: float = 1e-10,
+                     max_iterations: int = 50,
+                     guess_unknowns: Optional[npt.ArrayLike] = None) -> PrescribedEquilibrium:
     """Find the equilibrium with the sheet's held coordinates at ``held_positions_m``.
 
     Parameters

@@ -27,8 +27,12 @@ has rest tilts ``beta0`` and the energy of ``sin(beta) - sin(beta0)``: its secon
 form is measured from the moulded one, on the flat reference metric.
 """
 
-import numpy as np
+from typing import Optional
 
+import numpy as np
+import numpy.typing as npt
+
+from flectofold_model._validate import FloatArray
 from flectofold_model.structure import elements, kernels
 
 
@@ -40,8 +44,9 @@ class MidEdgeBending:
     18 coordinates in all, and the three edge rotations.
     """
 
-    def __init__(self, reference_xy_m, faces, plate_stiffness_nm, poisson_ratio,
-                 rest_sine=None):
+    def __init__(self, reference_xy_m: npt.ArrayLike, faces: npt.ArrayLike,
+                 plate_stiffness_nm: FloatArray, poisson_ratio: npt.ArrayLike,
+                 rest_sine: Optional[npt.ArrayLike] = None) -> None:
         faces = np.asarray(faces, dtype=np.int64)
         self.rest_sine = (np.zeros(faces.shape) if rest_sine is None
                           else np.ascontiguousarray(rest_sine, dtype=np.float64))
@@ -81,13 +86,13 @@ class MidEdgeBending:
                                          poisson_ratio)
         self.stencil = np.concatenate([faces, self.wings], axis=1)
 
-    def local_energy(self, local):
+    def local_energy(self, local: FloatArray) -> FloatArray:
         """Bending energy per face ``(m,)`` [J] of local unknowns ``(m, 21)``."""
         beta = self._tilts(local)
         sine = np.sin(beta) - self.rest_sine
         return np.einsum('mi,mij,mj->m', sine, self.quadratic, sine)
 
-    def local_gradient(self, local):
+    def local_gradient(self, local: FloatArray) -> FloatArray:
         """Gradient of :meth:`local_energy` with respect to the local unknowns ``(m, 21)``.
 
         Compiled (:func:`.kernels.bending_gradient`): ``2 M s`` times ``cos(beta)`` times the
@@ -97,7 +102,7 @@ class MidEdgeBending:
         return kernels.bending_gradient(np.ascontiguousarray(local), self.interior, self.side,
                                         self.quadratic, self.rest_sine)
 
-    def local_hessian(self, local):
+    def local_hessian(self, local: FloatArray) -> FloatArray:
         """Hessian of :meth:`local_energy` ``(m, 21, 21)``.
 
         ``E = s^T M s`` with ``s = sin(beta) - sin(beta0)``: the chain rule gives
@@ -110,7 +115,7 @@ class MidEdgeBending:
                                        self.quadratic, self.rest_sine,
                                        elements.HESSIAN_STEP_M).reshape(len(local), 21, 21)
 
-    def _tilts(self, local):
+    def _tilts(self, local: FloatArray) -> FloatArray:
         """Director tilts ``beta`` ``(m, 3)`` of local unknowns ``(m, 21)``."""
         corners = local[:, :18].reshape(-1, 6, 3)
         angles = np.zeros((len(local), 3))
@@ -121,11 +126,11 @@ class MidEdgeBending:
                     corners[mask][:, [(i + 1) % 3, (i + 2) % 3, i, 3 + i]])
         return 0.5 * angles + self.side * local[:, 18:]
 
-    def tilt_sine(self, local):
+    def tilt_sine(self, local: FloatArray) -> FloatArray:
         """Sines of the director tilts ``(m, 3)`` of local unknowns ``(m, 21)``."""
         return np.sin(self._tilts(local))
 
-    def curvature_per_m(self, local, from_rest=False):
+    def curvature_per_m(self, local: FloatArray, from_rest: bool = False) -> FloatArray:
         """Principal curvatures ``(m, 2)`` [1/m] of each face, largest magnitude first.
 
         With ``from_rest`` the change of curvature from the stress-free state, which is what
@@ -138,7 +143,7 @@ class MidEdgeBending:
         return np.take_along_axis(values, order, axis=1)
 
 
-def _shape_basis(corners):
+def _shape_basis(corners: FloatArray) -> FloatArray:
     """``I^-1 B_i`` per face ``(m, 3, 2, 2)``: the shape operator per unit ``sin(beta_i)``."""
     e1 = corners[:, 1] - corners[:, 0]
     e2 = corners[:, 2] - corners[:, 0]
@@ -158,7 +163,8 @@ def _shape_basis(corners):
     return np.einsum('mab,mibc->miac', np.linalg.inv(metric), basis)
 
 
-def _face_quadratic(corners, shape, plate_stiffness_nm, poisson_ratio):
+def _face_quadratic(corners: FloatArray, shape: FloatArray, plate_stiffness_nm: FloatArray,
+                    poisson_ratio: npt.ArrayLike) -> FloatArray:
     """``M`` per face ``(m, 3, 3)`` with the face's energy ``sin(beta)^T M sin(beta)`` [J].
 
     ``shape`` is :func:`_shape_basis` of the same corners.

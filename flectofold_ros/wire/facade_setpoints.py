@@ -9,12 +9,14 @@ Pure Python (no rclpy). Field table, and why one message rather than one ``Float
 panel: msg_docs/panel_node.md, section "Topics", item ``/facade/setpoints``.
 """
 
+from typing import Iterable, Sequence
+
 
 class SetpointsMessageError(ValueError):
     """A facade setpoints message that cannot be read as pairs of panel id and closure."""
 
 
-def entries(names, positions):
+def entries(names: Sequence[str], positions: Sequence[float]) -> list[tuple[str, float]]:
     """Return the ``(panel id, closure)`` pairs of a message's ``name`` and ``position``.
 
     A message whose lists differ in length, or that names a panel twice, is refused whole:
@@ -42,14 +44,15 @@ def entries(names, positions):
         raise SetpointsMessageError(
             f'{len(names)} name(s) and {len(positions)} position(s): they must pair up')
     if len(set(names)) != len(names):
-        seen, twice = set(), set()
+        seen: set[str] = set()
+        twice: set[str] = set()
         for name in names:
             (twice if name in seen else seen).add(name)
         raise SetpointsMessageError(f'{", ".join(sorted(twice)[:5])} named more than once')
     return [(name, float(value)) for name, value in zip(names, positions)]
 
 
-def fields(panel_ids, closures):
+def fields(panel_ids: Sequence[str], closures: Iterable[float]) -> tuple[list[str], list[float]]:
     """Return ``(name, position)`` for a message commanding ``closures`` to ``panel_ids``.
 
     Parameters

@@ -694,3 +694,13 @@ def test_the_integrator_is_named_and_the_counter_is_read_only():
     assert plant.integrator == 'adaptive' and plant.substeps_taken == 0
     with pytest.raises(AttributeError):
         plant.substeps_taken = 5
+
+
+@pytest.mark.parametrize('integrator', ['fixed', 'adaptive'])
+def test_accounting_a_kernel_run_is_refused_without_the_embedded_engine_and_counts_nothing(
+        integrator):
+    plant = PneumaticPlant(PlantParameters(), rigid_cushion(1.8e-3), 1, integrator=integrator)
+    with pytest.raises(ValueError, match="account needs integrator='embedded'"):
+        plant.account(0.1, 3, 1)
+    assert plant.time_s == 0.0
+    assert plant.substeps_taken == 0
