@@ -21,6 +21,7 @@ from pathlib import Path
 import tempfile
 import time
 
+from _facades import large_facade_text
 from builtin_interfaces.msg import Time
 import numpy as np
 from sensor_msgs.msg import PointCloud2, PointField
@@ -38,15 +39,7 @@ TARGET_FLUSHES_PER_S = 10.0
 
 def large_facade(rows=25, columns=40):
     """Return the demonstrator's modules on a ``rows`` x ``columns`` grid, 1.1 m pitch."""
-    text = Path(DEFAULT_FACADE).read_text()
-    for old, new in (('rows: 6', f'rows: {rows}'), ('columns: 6', f'columns: {columns}'),
-                     ('width_m: 6.6', f'width_m: {1.1 * columns:.1f}'),
-                     ('height_m: 6.6', f'height_m: {1.1 * rows:.1f}'),
-                     ('curvature_u_per_m: 0.08', 'curvature_u_per_m: 0.004'),
-                     ('curvature_v_per_m: -0.08', 'curvature_v_per_m: -0.004')):
-        assert old in text, old
-        text = text.replace(old, new)
-    return build_facade(text)
+    return build_facade(large_facade_text(rows, columns))
 
 
 def messages(scene, step, processes=2):
