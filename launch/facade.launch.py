@@ -3,7 +3,7 @@
 ``ros2 launch flectofold_ros facade.launch.py [facade_file:=PATH] [date:=2026-06-21]
 [start:=12:00] [end:=15:00] [speedup:=360.0] [panel_processes:=2] [record_bag:=DIR]
 [rerun_viewer:=auto|spawn|none|URL] [rrd_path:=day.rrd] [weather_file:=PATH]
-[markers:=true]``
+[markers:=true] [site_profile:=XML]``
 
 The launch-time counterpart of ``ros2 run flectofold_ros facade --panel-processes N``: the
 same :class:`flectofold_ros.bringup.plan.DayPlan` and so the same node parameters, but every
@@ -20,22 +20,34 @@ at most 5 times), as the ``facade`` command restarts them; a respawned panel pro
 its panels vented and takes the coordinator's next setpoint. The sun node is not: it is the
 clock, and a new one would start the day again. Nor are the observers: a new recorder would
 refuse the existing bag directory, a new bridge overwrite the ``.rrd``.
+
+``site_profile``: every node process runs on this Fast DDS profile (``site_certificates``
+makes one per host: TCP with mutual TLS on the site network), checked before any starts, as
+``facade --site-profile`` does: node K in the order of the actions listens on the profile's
+port plus K and dials the others (``msg_docs/security.md``). Empty (the default): ROS's
+loopback-only discovery.
 """
 
 import os
+import tempfile
 
 from launch import LaunchDescription
-from launch.actions import DeclareLaunchArgument, OpaqueFunction
+from launch.actions import (DeclareLaunchArgument, OpaqueFunction, SetEnvironmentVariable,
+                            UnsetEnvironmentVariable)
 from launch.substitutions import LaunchConfiguration
 from launch_ros.actions import Node
 
 from flectofold_model.facade import DEFAULT_FACADE, load_facade
 from flectofold_ros.bringup.plan import plan_day, PlanError
+from flectofold_ros.sitenet.certificates import SiteError
+from flectofold_ros.sitenet.fastdds_profile import process_profile, site_environment, SITE_REMOVED
 from flectofold_ros.wire import contract
 
 PACKAGE = 'flectofold_ros'
 #: How launch restarts a node process that died (the facade command backs off instead).
 RESPAWN = {'respawn': True, 'respawn_delay': 2.0, 'respawn_max_retries': 5}
+#: The variables that name a Fast DDS profile file (2.x, 3.x).
+PROFILE_VARIABLES = ('FASTRTPS_DEFAULT_PROFILES_FILE', 'FASTDDS_DEFAULT_PROFILES_FILE')
 
 #: name -> (default, description) of the launch arguments.
 ARGUMENTS = {
@@ -55,6 +67,9 @@ ARGUMENTS = {
                          'weather.md); empty: no weather'),
     'markers': ('false', 'true: start facade_markers, the folded facade on /facade/markers for '
                          'RViz and Foxglove (markers.md)'),
+    'site_profile': ('', 'Run every node process on this Fast DDS profile (site_certificates '
+                         'makes one per host: TCP with mutual TLS; security.md); empty: '
+                         "ROS's loopback-only discovery"),
 }
 
 
@@ -101,7 +116,37 @@ def launch_setup(context, *args, **kwargs):
         actions.append(Node(package=PACKAGE, executable='weather_node',
                             name=contract.WEATHER_NODE, output='screen',
                             parameters=[plan.weather_parameters(weather_file)], **RESPAWN))
-    return actions + observers
+    return _on_site_profile(context, actions + observers, actions[2:2 + plan.panel_processes])
+
+
+def _on_site_profile(context, nodes, panel_processes):
+    """Put every node process on the site profile, each with its own port, when one is given.
+
+    Node ``k`` (in the order of ``nodes``) takes the profile's port P + k and dials the
+    others (:func:`~flectofold_ros.sitenet.fastdds_profile.process_profile`); its profile is
+    set in the environment right before its action, which takes the environment as it is.
+    """
+    path = _absolute(_configuration(context, 'site_profile'))
+    if not path:
+        return nodes
+    try:
+        env = site_environment(path, {})
+        directory = tempfile.mkdtemp(prefix='flectofold_site_')
+        profiles = []
+        for index in range(len(nodes)):
+            profiles.append(os.path.join(directory, f'process_{index}.xml'))
+            with open(profiles[-1], 'w') as handle:
+                handle.write(process_profile(
+                    path, index, len(nodes),
+                    panel_process=nodes[index] in panel_processes))
+    except SiteError as error:
+        raise PlanError(f'facade.launch.py: site_profile: {error}') from None
+    actions = [SetEnvironmentVariable(name, value) for name, value in env.items()]
+    actions += [UnsetEnvironmentVariable(name) for name in SITE_REMOVED]
+    for node, profile in zip(nodes, profiles):
+        actions += [SetEnvironmentVariable(name, profile) for name in PROFILE_VARIABLES]
+        actions.append(node)
+    return actions
 
 
 def _observers(context, plan):

@@ -1,8 +1,16 @@
 """Shared test fixtures."""
 
 import os
+import signal
 
 import pytest
+
+# A suite started in the background of a non-interactive shell (``./run test &`` in a script)
+# inherits SIGINT ignored, and an ignored signal stays ignored across exec: the stop tests'
+# Ctrl-C would reach programs that ignore it, and the runner's tests would start from a state
+# no terminal gives. Take SIGINT back as Python's own start-up installs it.
+if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
+    signal.signal(signal.SIGINT, signal.default_int_handler)
 
 # Every embedded facade exceeds the 0.7 % fatigue strain estimate at closure 1, so loading one
 # warns (StrainLimitWarning, whose message starts "strain limit"). In this process pytest.ini

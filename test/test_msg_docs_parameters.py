@@ -45,6 +45,7 @@ PAGES = {
     'flectofold_ros.nodes.bag_recorder': 'bag_recorder.md',
     'flectofold_ros.nodes.rerun_bridge': 'rerun_bridge.md',
     'flectofold_ros.nodes.facade_markers': 'markers.md',
+    'flectofold_ros.nodes.bacnet_gateway': 'bacnet_gateway.md',
 }
 #: Parameters rclpy declares on every node that a page may list: name -> (type, default).
 RCLPY_OWN = {'use_sim_time': ('bool', False)}

@@ -110,7 +110,8 @@ RCLPY_FREE = ['flectofold_model', 'flectofold_ros.wire', 'flectofold_ros.recordi
               'flectofold_ros.rerun', 'flectofold_ros.commands', 'flectofold_ros.hardware',
               'flectofold_ros.bringup.plan', 'flectofold_ros.bringup.supervision',
               'flectofold_ros.bringup.fault_script', 'flectofold_ros.runtime.runner',
-              'flectofold_ros.runtime.executables', 'flectofold_ros.runtime.parameters']
+              'flectofold_ros.runtime.executables', 'flectofold_ros.runtime.parameters',
+              'flectofold_ros.sitenet', 'flectofold_ros.bms']
 
 
 def modules_of(dotted):
@@ -274,7 +275,8 @@ ROSDEP_KEYS = {
     'pyenergyplus': 'python3-pyenergyplus-lbnl-pip', 'pyradiance': 'python3-pyradiance-pip',
     'pymodbus': 'python3-pymodbus',
     'rerun': 'python3-rerun-sdk-pip', 'rerun_cli': 'python3-rerun-sdk-pip',
-    'launch_ros': 'launch_ros',
+    'launch_ros': 'launch_ros', 'cryptography': 'python3-cryptography',
+    'bacpypes3': 'python3-bacpypes3-pip',
 }
 #: ROS packages whose Python module has the package's name.
 ROS_PACKAGES = {'rclpy', 'builtin_interfaces', 'rcl_interfaces', 'std_msgs', 'std_srvs',

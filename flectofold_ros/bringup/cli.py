@@ -13,7 +13,9 @@ import datetime
 import math
 import os
 import resource
+import shutil
 import sys
+import tempfile
 import time
 
 import numpy as np
@@ -40,6 +42,10 @@ from flectofold_ros.runtime import diagnostics
 from flectofold_ros.runtime.domain_watch import Presence, StartCheck
 from flectofold_ros.runtime.interfaces import publisher
 from flectofold_ros.runtime.runner import NO_ROOM, Program, run_nodes, stop_requested
+from flectofold_ros.sitenet.certificates import SiteError
+from flectofold_ros.sitenet.fastdds_profile import (check_profile, listening_port,
+                                                    process_profile, site_environment,
+                                                    SITE_REMOVED)
 from flectofold_ros.wire import contract, presence
 
 #: Wall seconds the clock waits at the start for every panel and observer to be up.
@@ -121,6 +127,12 @@ def parse_arguments(argv):
                         help='restarts of a child process that keeps dying before its panels '
                              f'are given up (default {RestartPolicy.restart_limit}; 0: never '
                              'restart)')
+    parser.add_argument('--site-profile', default='', metavar='XML',
+                        help='run every process of the facade on this Fast DDS profile '
+                             '(site_certificates makes one per host: TCP with mutual TLS on '
+                             'the site network), each process on a TCP port of its own from '
+                             "the profile's (msg_docs/security.md); default: none, ROS's "
+                             'loopback-only discovery')
     options = parser.parse_args(argv)
     if not 0 <= options.restart_limit <= 1000:
         parser.error(f'--restart-limit must lie in [0, 1000], got {options.restart_limit}')
@@ -218,20 +230,28 @@ class Bringup(Program):
         self._refuse_beside_another_facade()
         env = dict(os.environ, PYTHONUNBUFFERED='1')
         supervisor, outputs = self.supervisor, self.outputs
+        # on a site profile, child k gets the profile of process k + 1 (site_processes)
+        profiles = iter(getattr(options, 'site_profiles', [])[1:])
+
+        def child_env():
+            path = next(profiles, None)
+            return env if path is None else dict(env, FASTRTPS_DEFAULT_PROFILES_FILE=path,
+                                                 FASTDDS_DEFAULT_PROFILES_FILE=path)
         if options.record:
             supervisor.add('bag_recorder', lambda start: plan.recorder_command(
-                os.path.join(outputs, _numbered('bag', start))), env=env)
+                os.path.join(outputs, _numbered('bag', start))), env=child_env())
         if options.rerun:
             supervisor.add('rerun_bridge', lambda start: plan.bridge_command(
                 os.path.join(outputs, _numbered('facade', start) + '.rrd'), options.rerun),
-                env=env)
+                env=child_env())
         if options.markers:
-            supervisor.add('facade_markers', lambda start: plan.markers_command(), env=env)
+            supervisor.add('facade_markers', lambda start: plan.markers_command(),
+                           env=child_env())
         groups = plan.panel_processes
         for k in range(groups):
             supervisor.add(f'panel_group {k}/{groups}',
                            lambda start, k=k: plan.panel_group_command(k),
-                           group_slice(self.facade.panel_ids, k, groups), env,
+                           group_slice(self.facade.panel_ids, k, groups), child_env(),
                            settings_node=f'panel_group_{k}')
         self.coordinator = CoordinatorNode(
             parameter_overrides=parameters(plan.coordinator_parameters()))
@@ -631,6 +651,37 @@ def check_weather(path, plan):
                          f'choose a --date it covers or a file that covers the date')
 
 
+def site_processes(options):
+    """Write the site profile of each process of the run; return their paths (this one first).
+
+    One TCP port per process (:func:`~flectofold_ros.sitenet.fastdds_profile.process_profile`):
+    this process takes the profile's port P, then each child in the order they start (the
+    recorder, the bridge, the markers, the panel processes) P + 1, P + 2 ... Written to a new
+    temporary directory, removed when the run ends; the files name the keys, they hold none.
+    """
+    check_profile(options.site_profile)
+    count = (1 + max(options.panel_processes, 0) + bool(options.record) + bool(options.rerun) +
+             bool(options.markers))
+    directory = tempfile.mkdtemp(prefix='flectofold_site_')
+    paths = []
+    first_panel_process = count - max(options.panel_processes, 0)
+    try:
+        for index in range(count):
+            path = os.path.join(directory, f'process_{index}.xml')
+            with open(path, 'w') as handle:
+                handle.write(process_profile(options.site_profile, index, count,
+                                             panel_process=index >= first_panel_process))
+            paths.append(path)
+    except BaseException:
+        shutil.rmtree(directory, ignore_errors=True)
+        raise
+    port = listening_port(options.site_profile)
+    print(f'facade: site profile {options.site_profile}: {count} processes on TCP ports '
+          f'{port}-{port + count - 1} (list them all on the other hosts: --peer IP:P-Q)',
+          flush=True)
+    return paths
+
+
 def _describe(child):
     """Name a child and how it ended: ``panel_group 0/2 (exit 2)``."""
     return f'{child.name} ({child.deaths[-1].cause})'
@@ -639,6 +690,17 @@ def _describe(child):
 def main(args=None):
     argv = remove_ros_args(args=sys.argv if args is None else args)[1:]
     options = parse_arguments(argv)
+    if options.site_profile:
+        # checked, and in the environment of this process and every child, before rclpy
+        # starts and before any child does
+        try:
+            options.site_profiles = site_processes(options)
+            os.environ.update(site_environment(options.site_profiles[0], os.environ))
+        except SiteError as error:
+            print(f'facade: --site-profile: {error}', file=sys.stderr, flush=True)
+            return 2
+        for name in SITE_REMOVED:
+            os.environ.pop(name, None)
 
     def start():
         facade = load_facade(options.facade or DEFAULT_FACADE)
@@ -650,7 +712,11 @@ def main(args=None):
         prepare_structural_map(facade, 'facade')
         return Bringup(options, facade, plan)
 
-    return run_nodes('facade', args, start, interrupted_code=INTERRUPTED)
+    try:
+        return run_nodes('facade', args, start, interrupted_code=INTERRUPTED)
+    finally:
+        if getattr(options, 'site_profiles', None):  # every child has stopped by now
+            shutil.rmtree(os.path.dirname(options.site_profiles[0]), ignore_errors=True)
 
 
 if __name__ == '__main__':

@@ -37,7 +37,9 @@ EXECUTABLES = {
     'bag_reindex': ('flectofold_ros.commands.bag_reindex', 130),
     'facade_export': ('flectofold_ros.commands.facade_export', 130),
     'valve_terminal_sim': ('flectofold_ros.commands.valve_terminal_sim', 0),
+    'bacnet_gateway': ('flectofold_ros.nodes.bacnet_gateway', 0),
     'structure_cache': ('flectofold_ros.commands.structure_cache', 130),
+    'site_certificates': ('flectofold_ros.commands.site_certificates', 130),
 }
 
 

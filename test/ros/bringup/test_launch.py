@@ -7,6 +7,7 @@ modules that record their arguments take their place.
 import fnmatch
 import importlib.util
 from pathlib import Path
+import shutil
 import sys
 import types
 
@@ -47,6 +48,18 @@ class _OpaqueFunction(_Recorder):
         return self.function(context, *self.function_args, **self.function_kwargs)
 
 
+class _SetEnvironmentVariable(_Recorder):
+    def __init__(self, name, value, **kwargs):
+        super().__init__(**kwargs)
+        self.name, self.value = name, value
+
+
+class _UnsetEnvironmentVariable(_Recorder):
+    def __init__(self, name, **kwargs):
+        super().__init__(**kwargs)
+        self.name = name
+
+
 class _LaunchConfiguration(_Recorder):
     def __init__(self, variable_name, **kwargs):
         super().__init__(**kwargs)
@@ -74,6 +87,8 @@ def _install_stand_ins():
     modules['launch'].LaunchDescription = _LaunchDescription
     modules['launch.actions'].DeclareLaunchArgument = _DeclareLaunchArgument
     modules['launch.actions'].OpaqueFunction = _OpaqueFunction
+    modules['launch.actions'].SetEnvironmentVariable = _SetEnvironmentVariable
+    modules['launch.actions'].UnsetEnvironmentVariable = _UnsetEnvironmentVariable
     modules['launch.substitutions'].LaunchConfiguration = _LaunchConfiguration
     modules['launch_ros.actions'].Node = _Recorder
     modules['launch'].actions = modules['launch.actions']
@@ -214,7 +229,7 @@ def test_declares_the_bringup_defaults(launch_module):
     assert defaults == {'facade_file': '', 'date': '2026-06-21', 'start': '12:00',
                         'end': '15:00', 'speedup': '360.0', 'panel_processes': '2',
                         'record_bag': '', 'rerun_viewer': '', 'rrd_path': '',
-                        'weather_file': '', 'markers': 'false'}
+                        'weather_file': '', 'markers': 'false', 'site_profile': ''}
 
 
 def test_defaults_launch_the_embedded_demonstrator(launch_module):
@@ -293,3 +308,43 @@ def test_panel_processes_and_the_coordinator_respawn_the_clock_does_not(launch_m
     for kwargs in (node.kwargs for node in nodes):
         if kwargs.get('respawn'):
             assert kwargs['respawn_delay'] > 0 and kwargs['respawn_max_retries'] >= 1
+
+
+def test_a_site_profile_puts_every_node_on_it_with_a_port_of_its_own(launch_module, tmp_path):
+    from xml.etree import ElementTree
+    from flectofold_ros.sitenet import certificates, fastdds_profile
+    certificates.make_authority(tmp_path, bits=2048)
+    certificates.make_host(tmp_path, 'facade-1', '10.0.0.1', bits=2048)
+    profile = tmp_path / 'facade-1.xml'
+    profile.write_text(fastdds_profile.host_profile(tmp_path, 'facade-1', '10.0.0.1', 45100,
+                                                    [('10.0.0.2', 45100)]))
+    actions = _nodes(launch_module, site_profile=str(profile))
+    nodes = [action for action in actions if 'executable' in getattr(action, 'kwargs', {})]
+    assert len(nodes) == len(_nodes(launch_module)) == 4  # sun, coordinator, 2 panel groups
+    if not STAND_INS:  # the real actions keep their values as substitutions
+        return
+    profiles, ports = [], []
+    for action in actions:
+        if getattr(action, 'name', None) == 'FASTRTPS_DEFAULT_PROFILES_FILE':
+            profiles.append(action.value)
+        elif action in nodes:
+            root = ElementTree.parse(profiles[-1]).getroot()
+            ports.append(int(next(e.text for e in root.iter() if e.tag.endswith('}port'))))
+            ignoring = any(e.text == 'fastdds.ignore_local_endpoints' for e in root.iter())
+            assert ignoring == (action.kwargs['executable'] == 'panel_group')
+            dialled = [(e[0].text, int(e[1].text)) for e in root.iter()
+                       if e.tag.endswith('}tcpv4')]
+            assert dialled == [('10.0.0.2', 45100)] + [
+                ('10.0.0.1', port) for port in range(45100, 45104) if port != ports[-1]]
+    assert ports == [45100, 45101, 45102, 45103]
+    shutil.rmtree(Path(profiles[-1]).parent)  # the launch file leaves them to its processes
+    values = {a.name: a.value for a in actions[:4] if hasattr(a, 'value')}
+    assert values['ROS_AUTOMATIC_DISCOVERY_RANGE'] == 'SUBNET'
+    assert {a.name for a in actions if a not in nodes and not hasattr(a, 'value')} == \
+        {'ROS_STATIC_PEERS', 'FASTDDS_BUILTIN_TRANSPORTS'}
+
+
+def test_a_site_profile_that_is_not_there_is_refused_naming_the_argument(launch_module,
+                                                                         tmp_path):
+    with pytest.raises(ValueError, match='site_profile: .*cannot be read'):
+        _nodes(launch_module, site_profile=str(tmp_path / 'absent.xml'))
