@@ -19,8 +19,13 @@ from flectofold_ros.recording import SegmentedBagWriter
 from flectofold_ros.wire import contract
 
 pytestmark = pytest.mark.graph
-#: Seconds after the start: still loading (imports, models), and up and running.
+#: Seconds after the executable's stop handlers are in place: still loading (imports,
+#: models), and up and running. Counted from the handlers, not from the process's start: before
+#: its first line runs, the interpreter's own start (under a second on an idle machine, longer
+#: on a loaded one) answers SIGINT with Python's KeyboardInterrupt, which no program can change.
 MOMENTS_S = (0.4, 4.0)
+#: Longest wait for an executable's first line [s]: a safety net for a loaded machine.
+FIRST_LINE_S = 60.0
 
 
 @pytest.fixture(scope='module')
@@ -66,9 +71,27 @@ def small_facade(tmp_path, small_facade_text):
     return path
 
 
+def catches_sigterm(pid):
+    """Whether process ``pid`` has a handler for SIGTERM (``SigCgt`` of ``/proc/PID/status``).
+
+    Python installs none of its own: the executable's stop handlers
+    (:class:`~flectofold_ros.runtime.runner.StopSignals`, its first act) are in place.
+    """
+    try:
+        status = Path(f'/proc/{pid}/status').read_text()
+    except OSError:
+        return False
+    caught = next(line.split()[1] for line in status.splitlines() if line.startswith('SigCgt:'))
+    return bool(int(caught, 16) >> (signal.SIGTERM - 1) & 1)
+
+
 def run_and_signal(command, delay_s, number, environment):
     process = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
                                text=True, env=environment, start_new_session=True)
+    deadline = time.monotonic() + FIRST_LINE_S
+    while not catches_sigterm(process.pid) and process.poll() is None \
+            and time.monotonic() < deadline:
+        time.sleep(0.005)
     time.sleep(delay_s)
     _, output, _ = signal_group_and_wait(process, number, timeout_s=60.0)
     survivors = subprocess.run(['pgrep', '-g', str(process.pid)], capture_output=True,
