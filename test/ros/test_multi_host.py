@@ -18,12 +18,11 @@ import json
 import os
 from pathlib import Path
 import shutil
-import signal
 import subprocess
 import sys
-import threading
 import time
 
+from netns import Child, ip_command, shared_memory_mappings, WAIT_RUNNING
 import pytest
 from ros_graph import BIN, domain_for
 
@@ -39,24 +38,6 @@ PANEL_SIDE, PEER_SIDE = 0, 1
 SETPOINT, PASSED = 0.8, 0.3
 #: How long the link stays down, after a grace period for what was already on its way.
 DOWN_GRACE_S, DOWN_S = 1.0, 3.0
-#: Run inside a namespace: wait until interface argv[1] has IFF_RUNNING (0x40), the flag
-#: getifaddrs() reports, read with SIOCGIFFLAGS (0x8913); give up after argv[2] seconds.
-WAIT_RUNNING = """
-import fcntl, socket, struct, sys, time
-name, deadline = sys.argv[1].encode(), time.monotonic() + float(sys.argv[2])
-probe = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
-while True:
-    request = fcntl.ioctl(probe, 0x8913, struct.pack('16sH14x', name, 0))
-    if struct.unpack('16sH14x', request)[1] & 0x40:
-        sys.exit(0)
-    if time.monotonic() > deadline:
-        sys.exit(f'{sys.argv[1]} not running after {sys.argv[2]} s')
-    time.sleep(0.02)
-"""
-
-
-def _ip(*arguments):
-    return subprocess.run(['ip', *arguments], capture_output=True, text=True, timeout=20)
 
 
 class Link:
@@ -83,8 +64,8 @@ class Link:
     def create(self):
         """Make the namespaces and links; skip where this machine cannot."""
         for namespace in [*self.namespaces, *([self.router] if self.routed else [])]:
-            _ip('netns', 'delete', namespace)  # a leftover of a killed run with this pid
-            result = _ip('netns', 'add', namespace)
+            ip_command('netns', 'delete', namespace)  # a leftover of a killed run with this pid
+            result = ip_command('netns', 'add', namespace)
             if result.returncode != 0:
                 pytest.skip(f'ip netns add failed: {result.stderr.strip()}')
             self.made.append(namespace)
@@ -118,12 +99,12 @@ class Link:
 
     def delete(self):
         for namespace in self.made:  # a namespace takes its ends of the veths with it
-            _ip('netns', 'delete', namespace)
+            ip_command('netns', 'delete', namespace)
 
     @staticmethod
     def _veth(name, namespace, peer, peer_namespace):
-        result = _ip('link', 'add', name, 'netns', namespace, 'type', 'veth',
-                     'peer', 'name', peer, 'netns', peer_namespace)
+        result = ip_command('link', 'add', name, 'netns', namespace, 'type', 'veth',
+                            'peer', 'name', peer, 'netns', peer_namespace)
         if result.returncode != 0:
             pytest.skip(f'cannot create a veth pair: {result.stderr.strip()}')
 
@@ -135,7 +116,7 @@ class Link:
 
     @staticmethod
     def _step(namespace, *step):
-        result = _ip('-n', namespace, *step)
+        result = ip_command('-n', namespace, *step)
         assert result.returncode == 0, (namespace, step, result.stderr)
 
     def _configure(self, namespace, veth, address):
@@ -201,59 +182,6 @@ def link(request):
         link.delete()
 
 
-class Child:
-    """A process started in a namespace, leading its own process group; its output is kept."""
-
-    def __init__(self, link, side, command, env, stdin=False):
-        self.process = subprocess.Popen(
-            ['ip', 'netns', 'exec', link.namespaces[side], *command], env=env, cwd=ROOT,
-            stdin=subprocess.PIPE if stdin else subprocess.DEVNULL, stdout=subprocess.PIPE,
-            stderr=subprocess.STDOUT, text=True, start_new_session=True)
-        self.lines = []
-        self._reader = threading.Thread(target=self._read, daemon=True)
-        self._reader.start()
-
-    def _read(self):
-        for line in self.process.stdout:
-            self.lines.append(line)
-
-    @property
-    def pid(self):
-        """The program's own pid: ``ip netns exec`` enters the namespace and execs it."""
-        return self.process.pid
-
-    def output(self):
-        return ''.join(self.lines[-40:])
-
-    def wait_for(self, condition, timeout_s):
-        deadline = time.monotonic() + timeout_s
-        while not condition():
-            if time.monotonic() > deadline or self.process.poll() is not None:
-                return condition()
-            time.sleep(0.05)
-        return True
-
-    def tell(self, line):
-        self.process.stdin.write(line + '\n')
-        self.process.stdin.flush()
-
-    def stop(self, timeout_s=30.0):
-        """SIGINT to the group, SIGKILL to it after ``timeout_s``; return the exit code."""
-        for sig in (signal.SIGINT, signal.SIGKILL):
-            if self.process.poll() is None:
-                try:
-                    os.killpg(self.process.pid, sig)
-                except ProcessLookupError:
-                    pass
-            try:
-                self.process.wait(timeout=timeout_s)
-                break
-            except subprocess.TimeoutExpired:
-                continue
-        self._reader.join(timeout=5.0)
-        return self.process.returncode
-
-
 class Samples:
     """What the peer printed: its samples by topic and panel, in arrival order."""
 
@@ -292,13 +220,6 @@ def dds_environment(link, side):
     if link.discovery == 'static_peers':
         env['ROS_STATIC_PEERS'] = link.addresses[1 - side]
     return env
-
-
-def shared_memory_mappings(pid):
-    """Fast DDS shared-memory segments (transport or data sharing) ``pid`` has mapped."""
-    maps = Path(f'/proc/{pid}/maps').read_text()
-    return sorted({line.split()[-1] for line in maps.splitlines()
-                   if '/dev/shm/fast' in line})
 
 
 def test_states_and_setpoints_cross_the_link_between_two_hosts(link):

@@ -16,6 +16,7 @@ import shutil
 import subprocess
 import sys
 
+from netns import ip_command
 import pytest
 
 ROOT = Path(__file__).resolve().parents[3]
@@ -61,10 +62,6 @@ asyncio.run(main())
 """
 
 
-def _ip(*arguments):
-    return subprocess.run(['ip', *arguments], capture_output=True, text=True, timeout=30)
-
-
 @pytest.fixture
 def subnet():
     if os.geteuid() != 0:
@@ -72,8 +69,8 @@ def subnet():
     if shutil.which('ip') is None:
         pytest.skip("needs iproute2's ip command")
     for namespace in NAMESPACES:
-        _ip('netns', 'delete', namespace)
-        added = _ip('netns', 'add', namespace)
+        ip_command('netns', 'delete', namespace, timeout_s=30)
+        added = ip_command('netns', 'add', namespace, timeout_s=30)
         if added.returncode != 0:
             pytest.skip(f'ip netns add failed: {added.stderr.strip()}')
     client_ns, gateway_ns = NAMESPACES
@@ -87,12 +84,12 @@ def subnet():
                        device),
                       ('-n', namespace, 'link', 'set', device, 'up')]
         for step in steps:
-            result = _ip(*step)
+            result = ip_command(*step, timeout_s=30)
             assert result.returncode == 0, (step, result.stderr)
         yield NAMESPACES
     finally:
         for namespace in NAMESPACES:
-            _ip('netns', 'delete', namespace)
+            ip_command('netns', 'delete', namespace, timeout_s=30)
 
 
 def test_a_broadcast_who_is_on_a_subnet_finds_the_gateway(subnet):

@@ -10,16 +10,14 @@ their own from the start; the site peer sends its own only later. ``msg_docs/sec
 says what this shows and what it does not. Needs root and ``ip netns``; skipped otherwise.
 """
 
-import json
 import os
 from pathlib import Path
 import shutil
-import signal
 import subprocess
 import sys
-import threading
 import time
 
+from netns import Child, ip_command, shared_memory_mappings, WAIT_RUNNING
 import pytest
 from ros_graph import BIN, domain_for
 
@@ -37,25 +35,6 @@ SETPOINT, PASSED, ROGUE_SETPOINT = 0.8, 0.3, 0.2
 #: Wall seconds the rogues command alone after the site peer first sees every panel's state.
 ROGUES_ALONE_S = 5.0
 BITS = 2048
-#: Run inside a namespace: wait until interface argv[1] is RUNNING (IFF_RUNNING, 0x40), as
-#: test_multi_host does (why: msg_docs/multi_host.md, "Start after the network is up").
-WAIT_RUNNING = """
-import fcntl, socket, struct, sys, time
-name, deadline = sys.argv[1].encode(), time.monotonic() + float(sys.argv[2])
-probe = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
-while True:
-    request = fcntl.ioctl(probe, 0x8913, struct.pack('16sH14x', name, 0))
-    if struct.unpack('16sH14x', request)[1] & 0x40:
-        sys.exit(0)
-    if time.monotonic() > deadline:
-        sys.exit(f'{sys.argv[1]} not running after {sys.argv[2]} s')
-    time.sleep(0.02)
-"""
-
-
-def _ip(*arguments):
-    result = subprocess.run(['ip', *arguments], capture_output=True, text=True, timeout=20)
-    return result
 
 
 class Network:
@@ -68,13 +47,14 @@ class Network:
 
     def create(self):
         for namespace in self.namespaces:
-            _ip('netns', 'delete', namespace)  # a leftover of a killed run with this pid
-            result = _ip('netns', 'add', namespace)
+            ip_command('netns', 'delete', namespace)  # a leftover of a killed run with this pid
+            result = ip_command('netns', 'add', namespace)
             if result.returncode != 0:
                 pytest.skip(f'ip netns add failed: {result.stderr.strip()}')
             self.made.append(namespace)
-        result = _ip('link', 'add', self.veths[0], 'netns', self.namespaces[0], 'type', 'veth',
-                     'peer', 'name', self.veths[1], 'netns', self.namespaces[1])
+        result = ip_command('link', 'add', self.veths[0], 'netns', self.namespaces[0],
+                            'type', 'veth', 'peer', 'name', self.veths[1], 'netns',
+                            self.namespaces[1])
         if result.returncode != 0:
             pytest.skip(f'cannot create a veth pair: {result.stderr.strip()}')
         addresses = ([PANEL_IP], [PEER_IP, FOREIGN_IP, TCP_IP, UDP_IP])
@@ -84,7 +64,7 @@ class Network:
                       for address in addresses[side]]
             steps.append(('link', 'set', self.veths[side], 'up'))
             for step in steps:
-                result = _ip('-n', self.namespaces[side], *step)
+                result = ip_command('-n', self.namespaces[side], *step)
                 assert result.returncode == 0, (step, result.stderr)
         for side in (0, 1):
             result = self.run(side, sys.executable, '-c', WAIT_RUNNING, self.veths[side], '10')
@@ -96,7 +76,7 @@ class Network:
 
     def delete(self):
         for namespace in self.made:
-            _ip('netns', 'delete', namespace)
+            ip_command('netns', 'delete', namespace)
 
 
 @pytest.fixture
@@ -136,65 +116,6 @@ def profiles(tmp_path):
     return made
 
 
-class Child:
-    """A process started in a namespace, leading its own process group; its output is kept."""
-
-    def __init__(self, network, side, command, env, stdin=False):
-        self.started = time.monotonic()
-        self.process = subprocess.Popen(
-            ['ip', 'netns', 'exec', network.namespaces[side], *command], env=env, cwd=ROOT,
-            stdin=subprocess.PIPE if stdin else subprocess.DEVNULL, stdout=subprocess.PIPE,
-            stderr=subprocess.STDOUT, text=True, start_new_session=True)
-        self.lines = []
-        self._reader = threading.Thread(target=self._read, daemon=True)
-        self._reader.start()
-
-    def _read(self):
-        for line in self.process.stdout:
-            self.lines.append(line)
-
-    def output(self):
-        return ''.join(self.lines[-40:])
-
-    def events(self):
-        return [json.loads(line) for line in list(self.lines) if line.startswith('{')]
-
-    def samples(self, topic=None, panel=None):
-        return [event for event in self.events() if event.get('event') == 'sample'
-                and topic in (None, event['topic']) and panel in (None, event['panel'])]
-
-    def latest(self, topic, panel):
-        found = self.samples(topic, panel)
-        return found[-1]['value'] if found else None
-
-    def wait_for(self, condition, timeout_s):
-        deadline = time.monotonic() + timeout_s
-        while not condition():
-            if time.monotonic() > deadline or self.process.poll() is not None:
-                return condition()
-            time.sleep(0.05)
-        return True
-
-    def tell(self, line):
-        self.process.stdin.write(line + '\n')
-        self.process.stdin.flush()
-
-    def stop(self, timeout_s=30.0):
-        for sig in (signal.SIGINT, signal.SIGKILL):
-            if self.process.poll() is None:
-                try:
-                    os.killpg(self.process.pid, sig)
-                except ProcessLookupError:
-                    pass
-            try:
-                self.process.wait(timeout=timeout_s)
-                break
-            except subprocess.TimeoutExpired:
-                continue
-        self._reader.join(timeout=5.0)
-        return self.process.returncode
-
-
 def environment(profile=None, **extra):
     """One domain; a site profile (as ``facade --site-profile`` sets it) or plain UDPv4."""
     env = {name: value for name, value in os.environ.items()
@@ -206,11 +127,6 @@ def environment(profile=None, **extra):
                    ROS_AUTOMATIC_DISCOVERY_RANGE='SUBNET', ROS_STATIC_PEERS=PANEL_IP)
         return env
     return fastdds_profile.site_environment(profile, env)
-
-
-def shared_memory_mappings(pid):
-    maps = Path(f'/proc/{pid}/maps').read_text()
-    return sorted({line.split()[-1] for line in maps.splitlines() if '/dev/shm/fast' in line})
 
 
 def test_site_hosts_command_the_panels_over_tls_and_strangers_see_and_move_nothing(
