@@ -1,7 +1,7 @@
 """Structural model of the panels: presets against the reflection model, mesh, CPU.
 
 Run with ``.venv/bin/python bench/bench_structure.py [--meshes] [--presets NAME ...]
-[--hexagon]``.
+[--hexagon [--prefold DEG]] [--trends] [--cushion-map]``.
 Everything printed is computed here; CPU is process time of this process.
 
 * ``--presets``: each preset's structural path on the default mesh beside the reflection model
@@ -18,7 +18,8 @@ Everything printed is computed here; CPU is process time of this process.
   structure (default mesh, cached): closing pressure, air to close, compliance; the CPU of the
   first (traced) and the second (cached) call.
 * ``--hexagon``: the hexagonal module on the coarse and default meshes (and the fine one with
-  ``--finest``): where its path goes and ends, against the reflection model at the same air.
+  ``--finest``): where its path goes and ends, against the reflection model at the same air;
+  ``--prefold DEG`` moulds it with another pre-fold than the preset's 5 deg.
 """
 
 import argparse
@@ -82,6 +83,16 @@ def compare(name, actuated, mesh):
               f'{travel[i] * 1e3 if np.isfinite(ours.pressure_pa[i]) else math.nan:19.2f}')
     for index in path.limit_points:
         print(f'pressure maximum {path.pressure_pa[index] / 1e3:.2f} kPa at '
+              f'{math.degrees(path.apex_fold_rad[index]):.1f} deg')
+    for index in path.bifurcations:
+        print(f'bifurcation after {path.pressure_pa[index] / 1e3:.2f} kPa at '
+              f'{math.degrees(path.apex_fold_rad[index]):.1f} deg')
+    for index, name in path.symmetry_breaking:
+        print(f'stability lost in a mode {name} at {path.air_m3[index] * 1e3:.3g} L, '
+              f'{path.pressure_pa[index] / 1e3:.2f} kPa, apex fold '
+              f'{math.degrees(path.apex_fold_rad[index]):.1f} deg')
+    for index in path.jumps:
+        print(f'jump to another branch at {path.air_m3[index] * 1e3:.3g} L, apex fold '
               f'{math.degrees(path.apex_fold_rad[index]):.1f} deg')
     print(f'ended: {path.ended}; largest apex fold '
           f'{math.degrees(path.apex_fold_rad.max()):.1f} deg at '
@@ -199,15 +210,20 @@ def cushion_map():
         print(f'{name:18s} plant on the demonstrator circuit: ' + '; '.join(line), flush=True)
 
 
-def hexagon(finest):
-    print('== the hexagonal module under its round cushion ==')
+def hexagon(finest, prefold_deg=None):
+    panel = HEXAGON_ACTUATED
+    if prefold_deg is not None:
+        panel = dataclasses.replace(panel, geometry=dataclasses.replace(
+            panel.geometry, prefold_rad=math.radians(prefold_deg)))
+    print(f'== the hexagonal module under its round cushion, moulded pre-fold '
+          f'{math.degrees(panel.geometry.prefold_rad):g} deg ==')
     closures = np.linspace(0.0, 1.0, 201)
     theirs = kinematic_rows(HEXAGON_ACTUATED, closures)
     meshes = [HexagonMesh(24, 6, 2, 3), HexagonMesh()]
     if finest:
         meshes.append(HexagonMesh(96, 24, 8, 12))
     for mesh in meshes:
-        path, cpu = cpu_of(lambda: hexagon_structural_path(HEXAGON_ACTUATED, mesh))
+        path, cpu = cpu_of(lambda: hexagon_structural_path(panel, mesh))
         print(f'{mesh.columns} rays per sector, hinge rows {mesh.hinge_rows}: '
               f'{path.node_count} nodes, {len(path.pressure_pa) - 1} equilibria, '
               f'{cpu:.1f} s CPU', flush=True)
@@ -225,11 +241,15 @@ def hexagon(finest):
                   f'{"yes" if path.stable_at_pressure[i] else "no ":>4} | '
                   f'{closure:38.3f} {math.degrees(at(theirs.apex_fold_rad)):10.1f} '
                   f'{at(theirs.pressure_pa):7.0f} {at(theirs.tip_travel_m) * 1e3:9.1f}')
-        for index in path.limit_points:
-            print(f'   pressure maximum {path.pressure_pa[index]:.1f} Pa at '
-                  f'{path.air_m3[index] * 1e3:.2f} L, apex fold '
-                  f'{math.degrees(path.apex_fold_rad[index]):.2f} deg')
-        print(f'   ended: {path.ended}; peak strains hinge '
+        for name, indices in (('pressure maximum', path.limit_points),
+                              ('bifurcation after', path.bifurcations),
+                              ('jump to another branch at', np.asarray(path.jumps))):
+            for index in indices:
+                print(f'   {name} {path.pressure_pa[index]:.1f} Pa at '
+                      f'{path.air_m3[index] * 1e3:.2f} L, apex fold '
+                      f'{math.degrees(path.apex_fold_rad[index]):.2f} deg')
+        print(f'   largest apex fold {math.degrees(path.apex_fold_rad.max()):.1f} deg; '
+              f'ended: {path.ended}; peak strains hinge '
               f'{path.peak_strain["hinge"].max() * 100:.2f} %, central part '
               f'{path.peak_strain["midrib"].max() * 100:.2f} %, flap '
               f'{path.peak_strain["flap"].max() * 100:.2f} %', flush=True)
@@ -242,6 +262,8 @@ def main():
                         help='with --meshes, also 160 columns and 8 hinge rows (an hour or more)')
     parser.add_argument('--presets', nargs='*')
     parser.add_argument('--hexagon', action='store_true')
+    parser.add_argument('--prefold', type=float, metavar='DEG',
+                        help="with --hexagon, the module's moulded pre-fold (preset: 5 deg)")
     parser.add_argument('--trends', action='store_true')
     parser.add_argument('--cushion-map', action='store_true')
     options = parser.parse_args()
@@ -256,7 +278,7 @@ def main():
     if options.cushion_map:
         cushion_map()
     if options.hexagon:
-        hexagon(options.finest)
+        hexagon(options.finest, options.prefold)
 
 
 if __name__ == '__main__':

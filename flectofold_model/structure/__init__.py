@@ -4,12 +4,12 @@
 mid-edge bending energy), :mod:`.sheet` (a sheet, its energy and its equilibrium path under a
 cushion, or with held coordinates), :mod:`.panel` (a quad panel meshed with its hinge bands,
 its moulded pre-fold, supports and cushion, and its path from open toward closed),
-:mod:`.hexagon` (the same for a hexagonal panel), :mod:`.comparison` (the path beside the
-reflection model at the same closures), :mod:`.cushion_tables` (the plant's cushion map from
-the structure, cached per design), :mod:`.facade_map` (a facade's map as its description
-chooses: energy statics or the structure of its median panel). Verification and comparison
-figures:
-``msg_docs/structure.md``.
+:mod:`.symmetry` (a mirror-symmetric sheet's path on one symmetry cell, its stability from
+every symmetry class), :mod:`.hexagon` (the same for a hexagonal panel), :mod:`.comparison`
+(the path beside the reflection model at the same closures), :mod:`.cushion_tables` (the
+plant's cushion map from the structure, cached per design), :mod:`.facade_map` (a facade's
+map as its description chooses: energy statics or the structure of its median panel).
+Verification and comparison figures: ``msg_docs/structure.md``.
 """
 
 from flectofold_model.structure.cushion_tables import structural_cushion_map, structural_tables
@@ -20,8 +20,10 @@ from flectofold_model.structure.panel import (PanelMesh, PanelSheet, structural_
 from flectofold_model.structure.sheet import (PathError, PathPoint, PrescribedEquilibrium,
                                               Sheet, SheetSystem, solve_prescribed,
                                               trace_path)
+from flectofold_model.structure.symmetry import Mirror, MirroredSystem
 
-__all__ = ['HexagonMesh', 'HexagonSheet', 'PanelMesh', 'PanelSheet', 'PathError', 'PathPoint',
-           'PrescribedEquilibrium', 'Sheet', 'SheetSystem', 'StructuralPath',
+__all__ = ['HexagonMesh', 'HexagonSheet', 'Mirror', 'MirroredSystem', 'PanelMesh',
+           'PanelSheet', 'PathError', 'PathPoint', 'PrescribedEquilibrium', 'Sheet',
+           'SheetSystem', 'StructuralPath',
            'hexagon_structural_path', 'solve_prescribed', 'structural_cushion_map',
            'structural_path', 'structural_tables', 'trace_path']

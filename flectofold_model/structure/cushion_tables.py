@@ -146,6 +146,13 @@ def _from_path(actuated: ActuatedPanel, path: StructuralPath,
                          f'{path.pressure_pa[index] / 1e3:.2f} kPa at '
                          f'{np.degrees(path.apex_fold_rad[index]):.1f} deg apex fold: a '
                          f'pressure regulator would snap the panel through, no cushion map')
+    unstable = np.flatnonzero(~np.asarray(path.stable_at_pressure, dtype=bool))
+    if len(unstable):
+        index = int(unstable[0])
+        raise ValueError(f'the structural path is not stable with the pressure held from '
+                         f'{path.pressure_pa[index] / 1e3:.2f} kPa at '
+                         f'{np.degrees(path.apex_fold_rad[index]):.1f} deg apex fold on (a '
+                         f'bifurcation): no cushion map')
     fold = closure_apex_folds_rad(actuated, np.linspace(0.0, 1.0, samples))
     along = np.asarray(path.apex_fold_rad)
     if np.any(np.diff(along) <= 0) or np.any(np.diff(path.pressure_pa) <= 0):

@@ -53,6 +53,7 @@ from flectofold_model.structure.sheet import Sheet
 
 if TYPE_CHECKING:  # the hexagon's statics load when used
     from flectofold_model.actuation.hexagon_statics import HexagonActuatedPanel
+    from flectofold_model.structure.symmetry import Mirror
 
 #: Nodes closer than this fraction of the circumradius are one node [-].
 MERGE_TOLERANCE = 1e-9
@@ -101,6 +102,11 @@ class HexagonSheet:
     """Dense points ``(3, P, 2)`` of the drawn fold lines [m]."""
     fold_line_outward_xy: np.ndarray
     """In-plane unit normals ``(3, P, 2)`` of the drawn fold lines, away from the centre."""
+
+    @property
+    def mirrors(self) -> tuple['Mirror', ...]:
+        """None used: the module's three mirrors are not the two of :mod:`.symmetry`."""
+        return ()
 
     @property
     def hinge_width_m(self) -> float:

@@ -10,16 +10,21 @@ The flat panel lies in ``z = 0`` with the mid-rib along ``x`` (supports B and C 
   fixed in the material on the drawn curve, whatever the fold asks). Each quad is split along
   a diagonal in a checker pattern, so the mesh keeps both mirror symmetries.
 * **Laminates** per zone from :class:`~..actuation.statics.ActuatedPanel`.
-* **Moulded pre-fold**: the hinge bands are given a rest curvature across the band, scaled
+* **Moulded pre-fold**: the hinge bands are given a rest curvature across the band (laid on
+  each triangle's own edge vectors, on which the tilts give its curvature), scaled
   until the unloaded equilibrium held at the supports has the apex fold ``prefold_rad`` (the
   mid-rib and flaps resist the fold, as the curved fold makes them bend); that equilibrium is
   the moulded shape, and its curvatures and its triangles are then taken as the stress-free
   state, as the paper's moulded part is (how far it is from isometric to the flat pattern is
   reported as the membrane energy it would hold on the flat metric).
 * **Supports as assumed**: the mid-rib's end edge between the hinge bands is held at both ends
-  (a line pin across the rib: no translation at B, none across or out of plane at C, so C
-  slides along the axis; rotation about the line is free). The drawings of the built supports
-  are not published; this is the pin-and-slider of Koerner et al.'s kinematic model.
+  across the rib and out of plane (a line support, free to turn about the line); along the
+  axis the edges slide, but for B's node on the axis, which holds the panel in place: the
+  pin-and-slider of Koerner et al.'s kinematic model, up to a rigid translation symmetric
+  about mid-span. The drawings of the built supports are not published.
+* **Symmetry**: mesh, laminates, cushion and supports are their own images in both mirrors
+  (``x -> -x``, ``y -> -y``), so the path is traced on a quarter of the unknowns and each
+  equilibrium's stability read from all four symmetry classes (:mod:`.symmetry`).
 * **Cushion**: the strip cushion's flat footprint (``flat_width_m`` x ``length_m``, centred)
   on the mid-rib presses as a follower pressure load; its back is the plane ``z =
   -mount_gap_m``. The strip cushion's shrinking contact width is not modelled: the whole
@@ -42,6 +47,7 @@ from flectofold_model.structure.sheet import (PathError, PathPoint, Sheet, Sheet
 if TYPE_CHECKING:  # the statics' module loads when used
     from flectofold_model.actuation.statics import ActuatedPanel
     from flectofold_model.kinematics.panel import PanelGeometry
+    from flectofold_model.structure.symmetry import Mirror, MirroredSystem
 
 
 class MeshedPanel(Protocol):
@@ -77,6 +83,10 @@ class MeshedPanel(Protocol):
     def support_travel_m(self, open_positions_m: FloatArray, positions_m: FloatArray) -> float:
         """Travel of the supports since the open state [m]."""
 
+    @property
+    def mirrors(self) -> tuple['Mirror', ...]:
+        """Mirrors of the mesh, supports and loads (:mod:`.symmetry`); none for no symmetry."""
+
 
 class MeshCounts(Protocol):
     """A structured mesh's element counts: a dataclass of integers with ``columns``."""
@@ -96,6 +106,9 @@ MIDRIB, HINGE, FLAP = 0, 1, 2
 
 #: Attempts and relative tolerance of the moulded apex fold against the pre-fold.
 MOULD_ATTEMPTS, MOULD_TOLERANCE = 6, 0.005
+#: Share of a step's largest possible cushion work by which the stored strain energy may
+#: leave its bounds before the step counts as a jump to another branch [-].
+JUMP_TOLERANCE = 0.01
 
 #: Steps in which the moulded pre-fold is raised from flat.
 MOULD_STEPS = 2
@@ -164,6 +177,12 @@ class PanelSheet:
         """Width of the hinge bands [m]."""
         return self.geometry.hinge_width_m
 
+    @property
+    def mirrors(self) -> tuple['Mirror', ...]:
+        """The mesh's mirrors ``x -> -x`` and ``y -> -y`` (:mod:`.symmetry`)."""
+        from flectofold_model.structure.symmetry import Mirror
+        return (Mirror(self.grid[::-1, :].ravel(), 0), Mirror(self.grid[:, ::-1].ravel(), 1))
+
     def outward_xy(self, points_xy_m: FloatArray) -> FloatArray:
         """In-plane unit normal of the nearer drawn fold line at points, away from the axis."""
         geometry = self.geometry
@@ -227,8 +246,11 @@ def build_panel_sheet(panel: 'ActuatedPanel', mesh: PanelMesh = PanelMesh()) -> 
     poisson = np.array([laminates[z].poisson_ratio for z in zone])
     fixed = np.zeros((len(xy), 3), dtype=bool)
     rib_rows = slice(half - mesh.midrib_rows, half + mesh.midrib_rows + 1)
-    fixed[grid[0, rib_rows]] = True
+    # Both end edges held across and out of plane; along the axis only B's node on it (the
+    # pin): the rest slide, so the supports are their own mirror images up to that pin.
+    fixed[grid[0, rib_rows], 1:] = True
     fixed[grid[-1, rib_rows], 1:] = True
+    fixed[grid[0, half], 0] = True
     centroid = xy[triangles].mean(axis=1)
     cushion = panel.cushion
     loaded = ((zone == MIDRIB) & (np.abs(centroid[:, 0]) <= cushion.length_m / 2)
@@ -277,9 +299,15 @@ def mould_prefold(panel_sheet: MeshedPanel,
     # arches the mid-rib to, so that arching the mid-rib folds them further (closing).
     curvature = np.where(sheet.zone == HINGE, -prefold_rad / panel_sheet.hinge_width_m, 0.0)
     target = curvature[:, None, None] * np.einsum('mi,mj->mij', outward, outward)
-    basis = system.bending.shape_basis
+    # The tilts give the second fundamental form on each face's own edge vectors
+    # (``I S``, :mod:`.shell`): the target is laid onto them, not onto x and y.
+    corners = sheet.reference_xy_m[sheet.triangles]
+    edges = np.stack([corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]], axis=-1)
+    form = np.einsum('mia,mij,mjb->mab', edges, target, edges)
+    metric = np.einsum('mia,mib->mab', edges, edges)
+    basis = np.einsum('mab,mkbc->mkac', metric, system.bending.shape_basis)
     matrix = np.stack([basis[:, :, 0, 0], basis[:, :, 0, 1], basis[:, :, 1, 1]], axis=1)
-    rhs = np.stack([target[:, 0, 0], target[:, 0, 1], target[:, 1, 1]], axis=1)
+    rhs = np.stack([form[:, 0, 0], form[:, 0, 1], form[:, 1, 1]], axis=1)
     rest = np.linalg.solve(matrix, rhs[:, :, None])[:, :, 0]
     # The hinge's rest curvature is scaled until the unloaded shape's apex fold is the
     # pre-fold (the mid-rib and flaps resist the fold, as the curved fold makes them bend).
@@ -290,8 +318,10 @@ def mould_prefold(panel_sheet: MeshedPanel,
     for attempt in range(MOULD_STEPS + MOULD_ATTEMPTS):
         scale = scales[attempt] if attempt < MOULD_STEPS else scale * prefold_rad / achieved
         folded = replace(sheet, rest_tilt_sine=np.clip(scale * rest, -1.0, 1.0))
+        system = equilibrium_system(panel_sheet, folded)
         try:
-            first = solve_prescribed(folded, held, held, guess_unknowns=guess)
+            first = solve_prescribed(folded, held, held, guess_unknowns=guess,
+                                     system=None if isinstance(system, SheetSystem) else system)
         except PathError as error:
             raise ValueError(f'could not mould the pre-fold {prefold_rad:g} rad on this mesh: '
                              f'{error}') from None
@@ -407,6 +437,12 @@ class StructuralPath:
     """Cushion volume of the open state, between the loaded footprint and the back [m3]."""
     zone: Optional[np.ndarray] = None
     """Zone of each triangle (:data:`MIDRIB`, :data:`HINGE`, :data:`FLAP`)."""
+    negative_by_class: Optional[np.ndarray] = None
+    """Negative eigenvalues of the tangent with the pressure held, per equilibrium and
+    symmetry class ``(points, classes)``, the even class first; -1 where unknown."""
+    class_names: tuple[str, ...] = ('whole',)
+    """The classes of :attr:`negative_by_class` (``'even'``, ``'odd in y'``, ... or
+    ``'whole'`` for a panel solved without its symmetry)."""
 
     @property
     def limit_points(self) -> IntArray:
@@ -416,7 +452,58 @@ class StructuralPath:
         pressure regulator snaps the panel through.
         """
         stable = np.asarray(self.stable_at_pressure, dtype=bool)
-        return np.flatnonzero(stable[:-1] & ~stable[1:])
+        held = np.asarray(self.stable_at_volume, dtype=bool)
+        # At a pressure maximum the tangent turns indefinite along the volume gradient: the
+        # equilibrium stays stable with the air held. Otherwise it is a bifurcation.
+        return np.flatnonzero(stable[:-1] & ~stable[1:] & held[1:])
+
+    @property
+    def bifurcations(self) -> IntArray:
+        """Indices of the last equilibria stable with the air held before one that is not.
+
+        The tangent has turned indefinite in a direction that keeps the volume: a branch
+        crosses the path (with the pressure still rising, or past a maximum), and the panel
+        leaves the path there even with its valves closed.
+        """
+        held = np.asarray(self.stable_at_volume, dtype=bool)
+        return np.flatnonzero(held[:-1] & ~held[1:])
+
+    @property
+    def symmetry_breaking(self) -> list[tuple[int, str]]:
+        """Where the path first loses stability in a mode that breaks its symmetry.
+
+        ``(index, class name)`` for every odd class whose tangent gets a negative eigenvalue
+        (the first equilibrium where it has one): from there the symmetric path the solver
+        follows is not the panel's, which leaves it in that mode (a bifurcation).
+        """
+        if self.negative_by_class is None:
+            return []
+        found = []
+        for column, name in enumerate(self.class_names):
+            if name in ('even', 'whole'):
+                continue
+            negative = np.flatnonzero(np.asarray(self.negative_by_class)[:, column] > 0)
+            if len(negative):
+                found.append((int(negative[0]), name))
+        return sorted(found)
+
+    @property
+    def jumps(self) -> IntArray:
+        """Indices of equilibria the path reached by a jump to another branch.
+
+        Over a step of smoothly changing shape the strain energy stored equals the cushion's
+        work, between the lower and the higher of the step's two pressures times its air.
+        Outside those bounds (by more than :data:`JUMP_TOLERANCE` of the larger) Newton's
+        method has found an equilibrium on another branch: the panel snapped within the
+        step, and the energy difference would go into motion and damping.
+        """
+        air = np.diff(self.air_m3)
+        pressure = np.asarray(self.pressure_pa)
+        least = np.minimum(pressure[:-1], pressure[1:]) * air
+        most = np.maximum(pressure[:-1], pressure[1:]) * air
+        stored = np.diff(self.strain_energy_j)
+        slack = JUMP_TOLERANCE * np.maximum(np.abs(least), np.abs(most))
+        return np.flatnonzero((stored < least - slack) | (stored > most + slack)) + 1
 
 
 def structural_path(panel: 'ActuatedPanel', mesh: PanelMesh = PanelMesh(),
@@ -467,6 +554,7 @@ def trace_panel_path(panel_sheet: MeshedPanel, prefold_rad: float, target_fold_r
     sheet, start, moulding_energy = mould_prefold(panel_sheet, prefold_rad)
     ended = ['closed']
     air_limit = AIR_LIMIT_FACTOR * air_estimate_m3
+    system = equilibrium_system(panel_sheet, sheet)
     try:
         def reached(point: PathPoint) -> bool:
             fold = apex_fold_angle_rad(panel_sheet, point.positions_m)
@@ -480,16 +568,35 @@ def trace_panel_path(panel_sheet: MeshedPanel, prefold_rad: float, target_fold_r
                 return True
             return False
 
-        opened = SheetSystem(sheet).volume_m3(start)
+        if isinstance(system, SheetSystem):
+            values = start
+        else:
+            values = system.restrict_sheet(start)
+        opened = system.volume_m3(values)
         points = trace_path(sheet, air_estimate_m3 / steps, reached, max_steps=8 * steps,
-                            tolerance=tolerance, start=start)
+                            tolerance=tolerance, start=values, system=system)
     except PathError as error:
         points, ended[0] = error.points, str(error)
-    return _path_from_points(panel_sheet, sheet, points, ended[0], moulding_energy)
+    return _path_from_points(panel_sheet, sheet, points, ended[0], moulding_energy,
+                             system.class_names)
+
+
+def equilibrium_system(panel_sheet: MeshedPanel,
+                       sheet: Sheet) -> 'SheetSystem | MirroredSystem':
+    """Return the equations to solve a panel's sheet with: its symmetry cell's if it has one.
+
+    The quad panel's path is symmetric under both mirrors and is traced on a quarter of its
+    unknowns; its stability is read from all four symmetry classes (:mod:`.symmetry`).
+    """
+    if not panel_sheet.mirrors:
+        return SheetSystem(sheet)
+    from flectofold_model.structure.symmetry import MirroredSystem
+    return MirroredSystem(sheet, panel_sheet.mirrors)
 
 
 def _path_from_points(panel_sheet: MeshedPanel, sheet: Sheet, points: list[PathPoint],
-                      ended: str, moulding_energy: float) -> StructuralPath:
+                      ended: str, moulding_energy: float,
+                      class_names: tuple[str, ...] = ('whole',)) -> StructuralPath:
     system = SheetSystem(sheet)
     folds = np.array([panel_sheet.fold_angles_rad(p.positions_m) for p in points])
     tip = np.array([p.positions_m[panel_sheet.tip_node] for p in points])
@@ -521,6 +628,9 @@ def _path_from_points(panel_sheet: MeshedPanel, sheet: Sheet, points: list[PathP
                                   for p in points]),
         stable_at_pressure=np.array([bool(p.stable_at_pressure) for p in points]),
         stable_at_volume=np.array([bool(p.stable_at_volume) for p in points]),
+        negative_by_class=np.array([p.negative_by_class if p.negative_by_class is not None
+                                    else (-1,) * len(class_names) for p in points]),
+        class_names=class_names,
         ended=ended, node_count=sheet.node_count, moulding_energy_j=moulding_energy,
         positions_m=np.array([p.positions_m for p in points]),
         surface_strain=np.array(strains), triangles=np.asarray(sheet.triangles),

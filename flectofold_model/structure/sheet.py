@@ -6,11 +6,13 @@ equilibrium under rising cushion volume (volume control: each step fixes the vol
 under the loaded triangles and solves for the shape and the pressure together), so that a
 pressure that stops rising, a limit point, is passed and reported rather than hidden. Newton's
 method on the augmented system ``[H - p H_V, -g_V; -g_V^T, 0]``, sparse LU (the tangent is
-not positive definite beyond a limit point).
+not positive definite beyond a limit point). The equations come from a :class:`SheetSystem`
+(every unknown) or a :class:`~.symmetry.MirroredSystem` (a symmetric sheet's symmetry cell);
+both have the :class:`EquilibriumSystem` interface the solvers use.
 """
 
 from dataclasses import dataclass
-from typing import Callable, Iterable, Optional
+from typing import Callable, Iterable, Optional, Protocol
 
 import numpy as np
 import numpy.typing as npt
@@ -145,17 +147,29 @@ class SheetSystem:
 
     The unknowns are the node coordinates (``3 n``, the supported ones held) followed by
     one rotation per edge (the mid-edge directors of :mod:`.shell`, all free).
+
+    With ``faces`` (indices into ``sheet.triangles``) only those triangles' membrane, bending
+    and cushion terms are summed, over the same unknowns: a symmetric sheet's energy is a
+    whole multiple of one symmetry cell's (:mod:`.symmetry`).
     """
 
-    def __init__(self, sheet: Sheet) -> None:
+    def __init__(self, sheet: Sheet, faces: Optional[npt.ArrayLike] = None) -> None:
         self.sheet = sheet
-        self.inverse, self.area = membrane_data(sheet)
+        chosen = (np.arange(len(sheet.triangles)) if faces is None
+                  else np.asarray(faces, dtype=np.int64))
+        triangles = np.asarray(sheet.triangles)[chosen]
+        inverse, area = membrane_data(sheet)
+        self.inverse, self.area = inverse[chosen], area[chosen]
         self.membrane_modulus = (sheet.youngs_modulus_pa * sheet.thickness_m
-                                 / (1.0 - sheet.poisson_ratio**2))
+                                 / (1.0 - sheet.poisson_ratio**2))[chosen]
+        self.poisson = np.asarray(sheet.poisson_ratio, dtype=np.float64)[chosen]
         self.bending = MidEdgeBending(sheet.reference_xy_m, sheet.triangles,
                                       sheet.plate_stiffness_nm, sheet.poisson_ratio,
                                       sheet.rest_tilt_sine)
-        self.loaded_triangles = sheet.triangles[np.asarray(sheet.loaded, dtype=bool)]
+        if faces is not None:
+            self.bending = self.bending.subset(chosen)
+        self.triangles = triangles
+        self.loaded_triangles = triangles[np.asarray(sheet.loaded, dtype=bool)[chosen]]
         nodes = sheet.node_count
         position_dofs = 3 * nodes
         self.size_all = position_dofs + self.bending.edge_count
@@ -175,22 +189,45 @@ class SheetSystem:
         bending_dofs = np.concatenate([node_dofs(self.bending.stencil),
                                        position_dofs + self.bending.edges], axis=1)
         self._groups = [
-            _Group(node_dofs(sheet.triangles), reduced, self._membrane_gradient, 1,
+            _Group(node_dofs(triangles), reduced, self._membrane_gradient, 1,
                    self._membrane_hessian),
             _Group(bending_dofs, reduced, self.bending.local_gradient, 1,
                    self.bending.local_hessian),
             _Group(node_dofs(self.loaded_triangles), reduced, self._prism_gradient, 0),
         ]
-        rows = np.concatenate([g.rows for g in self._groups])
-        cols = np.concatenate([g.cols for g in self._groups])
-        size = len(self.free)
-        # Sorted column by column, the distinct entries are the CSC layout of the tangent.
-        unique, self._slot = np.unique(cols * size + rows, return_inverse=True)
-        self._indices = unique % size
-        self._indptr = np.concatenate([[0], np.cumsum(np.bincount(unique // size,
-                                                                  minlength=size))])
-        self._size = size
+        self._size = len(self.free)
+        self._layout: Optional[tuple[IntArray, IntArray, IntArray]] = None
         self.extent_m = float(np.ptp(sheet.reference_xy_m, axis=0).max())
+        self.moves_positions = self.free < position_dofs
+        """True for the free unknowns that are coordinates (the others edge rotations)."""
+
+    def _tangent_layout(self) -> tuple[IntArray, IntArray, IntArray]:
+        """Where each element Hessian entry goes in the tangent's CSC arrays (made once)."""
+        if self._layout is None:
+            rows = np.concatenate([g.rows for g in self._groups])
+            cols = np.concatenate([g.cols for g in self._groups])
+            size = self._size
+            # Sorted column by column, the distinct entries are the CSC layout.
+            unique, slot = np.unique(cols * size + rows, return_inverse=True)
+            indptr = np.concatenate([[0], np.cumsum(np.bincount(unique // size,
+                                                                minlength=size))])
+            self._layout = (slot, unique % size, indptr)
+        return self._layout
+
+    def rest_values(self) -> FloatArray:
+        """Return the free unknowns of the reference (flat) shape."""
+        return self.reference[self.free].copy()
+
+    def sheet_unknowns(self, free_values: FloatArray) -> FloatArray:
+        """Return the sheet's free unknowns of a solution: the values themselves."""
+        return free_values
+
+    class_names: tuple[str, ...] = ('whole',)
+    """The one block's name (:class:`~.symmetry.MirroredSystem` has one per class)."""
+
+    def tangent_blocks(self, free_values: FloatArray, pressure_pa: float) -> list[csc_matrix]:
+        """Return the tangent as one block (:class:`~.symmetry.MirroredSystem` has several)."""
+        return [self.hessians(free_values, pressure_pa)]
 
     def full(self, free_values: FloatArray) -> FloatArray:
         """Every unknown from the free ones."""
@@ -206,9 +243,8 @@ class SheetSystem:
         """``(membrane, bending)`` strain energies [J]."""
         unknowns = self.full(free_values)
         positions = unknowns[:3 * self.sheet.node_count].reshape(-1, 3)
-        membrane = elements.membrane_energy(positions[self.sheet.triangles], self.inverse,
-                                            self.area, self.membrane_modulus,
-                                            self.sheet.poisson_ratio)
+        membrane = elements.membrane_energy(positions[self.triangles], self.inverse,
+                                            self.area, self.membrane_modulus, self.poisson)
         bending = self.bending.local_energy(unknowns[self._groups[1].dofs])
         return float(membrane.sum()), float(bending.sum())
 
@@ -223,8 +259,7 @@ class SheetSystem:
     def membrane_strains(self, free_values: FloatArray) -> FloatArray:
         """Principal membrane strains of every face ``(m, 2)``, largest magnitude first."""
         positions = self.positions(free_values)
-        return elements.membrane_principal_strain(positions[self.sheet.triangles],
-                                                  self.inverse)
+        return elements.membrane_principal_strain(positions[self.triangles], self.inverse)
 
     def tilt_sine(self, free_values: FloatArray) -> FloatArray:
         """Sines of every face's director tilts ``(m, 3)`` (a moulded shape's rest tilts)."""
@@ -240,11 +275,11 @@ class SheetSystem:
         corners = local.reshape(-1, 3, 3)
         return elements.membrane_gradient(corners, self.inverse, self.area,
                                           self.membrane_modulus,
-                                          self.sheet.poisson_ratio).reshape(local.shape)
+                                          self.poisson).reshape(local.shape)
 
     def _membrane_hessian(self, local: FloatArray) -> FloatArray:
         return elements.membrane_hessian(local.reshape(-1, 3, 3), self.inverse, self.area,
-                                         self.membrane_modulus, self.sheet.poisson_ratio)
+                                         self.membrane_modulus, self.poisson)
 
     def _prism_gradient(self, local: FloatArray) -> FloatArray:
         corners = local.reshape(-1, 3, 3)
@@ -274,9 +309,9 @@ class SheetSystem:
                 local = group.hessian(unknowns[group.dofs])
             scale = 1.0 if group.strain else -pressure_pa
             parts.append(scale * local.reshape(len(local), group.keep.shape[1])[group.keep])
-        data = np.bincount(self._slot, weights=np.concatenate(parts),
-                           minlength=len(self._indices))
-        return csc_matrix((data, self._indices, self._indptr), shape=(self._size, self._size))
+        slot, indices, indptr = self._tangent_layout()
+        data = np.bincount(slot, weights=np.concatenate(parts), minlength=len(indices))
+        return csc_matrix((data, indices, indptr), shape=(self._size, self._size))
 
 
 def factorise(matrix: csc_matrix) -> SuperLU:
@@ -383,44 +418,107 @@ class PathPoint:
     stable_at_volume: Optional[bool] = None
     """True where the tangent is positive definite on the fixed-volume directions: stable
     with the air in the cushion held (closed valves); None where unknown."""
+    negative_by_class: Optional[tuple[int, ...]] = None
+    """Negative eigenvalues of the tangent in each symmetry class, the even one first (one
+    entry for a sheet solved whole; :class:`~.symmetry.MirroredSystem`); None where
+    unknown."""
 
 
-def tangent_inertia(system: SheetSystem, values: FloatArray,
+class EquilibriumSystem(Protocol):
+    """What the path and the prescribed solve ask of a system of equations.
+
+    :class:`SheetSystem` (every unknown) and :class:`~.symmetry.MirroredSystem` (the even
+    unknowns of a symmetric sheet) have it.
+    """
+
+    extent_m: float
+    moves_positions: np.ndarray
+    class_names: tuple[str, ...]
+
+    def rest_values(self) -> FloatArray:
+        """Return the unknowns of the reference shape."""
+
+    def sheet_unknowns(self, values: FloatArray) -> FloatArray:
+        """Return the sheet's own free unknowns of a solution."""
+
+    def positions(self, values: FloatArray) -> FloatArray:
+        """Node positions ``(n, 3)`` [m]."""
+
+    def volume_m3(self, values: FloatArray) -> float:
+        """Volume under the loaded triangles [m3]."""
+
+    def energies_j(self, values: FloatArray) -> tuple[float, float]:
+        """``(membrane, bending)`` strain energies [J]."""
+
+    def gradients(self, values: FloatArray) -> tuple[FloatArray, FloatArray]:
+        """Strain-energy and volume gradients."""
+
+    def hessians(self, values: FloatArray, pressure_pa: float) -> csc_matrix:
+        """Return the tangent ``H - p H_V`` the path solves with."""
+
+    def tangent_blocks(self, values: FloatArray, pressure_pa: float) -> list[csc_matrix]:
+        """Return the whole tangent in blocks, the one with the volume gradient first."""
+
+
+class ReducedSystem(EquilibriumSystem, Protocol):
+    """A system over fewer unknowns than the sheet's: :class:`~.symmetry.MirroredSystem`."""
+
+    def restrict_sheet(self, sheet_unknowns: npt.ArrayLike) -> FloatArray:
+        """Return its unknowns nearest to the sheet's own free unknowns of a shape."""
+
+
+def tangent_inertia(system: 'EquilibriumSystem', values: FloatArray,
                     pressure: float) -> Optional[tuple[int, float]]:
     """Negative eigenvalues of the tangent ``H - p H_V`` and ``g_V^T (H - p H_V)^-1 g_V``.
 
     From a symmetric-mode factorisation ``P H P^T = L D L^T`` (``D`` the diagonal of ``U``),
-    whose signs are those of the eigenvalues (Sylvester's law of inertia). None when that
-    factorisation needed pivoting or failed.
+    whose signs are those of the eigenvalues (Sylvester's law of inertia); of each block
+    where the system gives the tangent in blocks (:meth:`~.symmetry.MirroredSystem.
+    tangent_blocks`: the negative eigenvalues summed, the volume gradient in the first). None
+    when a factorisation needed pivoting or failed.
     """
-    matrix = system.hessians(values, pressure)
-    try:
-        factor = _symmetric_lu(matrix)
-    except RuntimeError:
-        return None
-    pivots = _pivots(factor)
-    if pivots is None:
-        return None
-    _, volume_gradient = system.gradients(values)
-    curvature = volume_gradient @ factor.solve(volume_gradient)
+    found = block_inertia(system, values, pressure)
+    return None if found is None else (sum(found[0]), found[1])
+
+
+def block_inertia(system: 'EquilibriumSystem', values: FloatArray,
+                  pressure: float) -> Optional[tuple[tuple[int, ...], float]]:
+    """:func:`tangent_inertia` with the negative eigenvalues of each block apart."""
+    negatives, curvature = [], np.nan
+    for index, matrix in enumerate(system.tangent_blocks(values, pressure)):
+        if matrix.shape[0] == 0:
+            negatives.append(0)
+            continue
+        try:
+            factor = _symmetric_lu(matrix)
+        except RuntimeError:
+            return None
+        pivots = _pivots(factor)
+        if pivots is None:
+            return None
+        negatives.append(int(np.count_nonzero(pivots < 0.0)))
+        if index == 0:
+            _, volume_gradient = system.gradients(values)
+            curvature = float(volume_gradient @ factor.solve(volume_gradient))
     if not np.isfinite(curvature):
         return None
-    return int(np.count_nonzero(pivots < 0.0)), float(curvature)
+    return tuple(negatives), curvature
 
 
-def _stability(system: SheetSystem, values: FloatArray,
-               pressure: float) -> tuple[Optional[bool], Optional[bool]]:
-    """``(stable_at_pressure, stable_at_volume)`` from the inertia of the tangent.
+def _stability(system: 'EquilibriumSystem', values: FloatArray, pressure: float
+               ) -> tuple[Optional[bool], Optional[bool], Optional[tuple[int, ...]]]:
+    """``(stable_at_pressure, stable_at_volume, negatives per block)`` from the tangent.
 
     With the volume held, the bordered tangent has one negative eigenvalue from the constraint
     plus ``neg(H) - 1`` when ``g_V^T H^-1 g_V < 0`` (Haynsworth), so it is stable when
     ``neg(H) + [g_V^T H^-1 g_V > 0] == 1``; with the pressure held, when ``neg(H) == 0``.
     """
-    inertia = tangent_inertia(system, values, pressure)
+    inertia = block_inertia(system, values, pressure)
     if inertia is None:
-        return None, None
-    negative, curvature = inertia
-    return negative == 0, negative + int(curvature > 0.0) == 1
+        return None, None, None
+    negatives, curvature = inertia
+    negative = sum(negatives)
+    return negative == 0, negative + int(curvature > 0.0) == 1, negatives
 
 
 class PathError(RuntimeError):
@@ -435,7 +533,8 @@ class PathError(RuntimeError):
 def trace_path(sheet: Sheet, volume_step_m3: float, stop: Callable[[PathPoint], bool],
                max_steps: int = 400, tolerance: float = 1e-8,
                min_step_fraction: float = 1.0 / 64.0, max_iterations: int = 40,
-               start: Optional[npt.ArrayLike] = None) -> list[PathPoint]:
+               start: Optional[npt.ArrayLike] = None,
+               system: Optional['EquilibriumSystem'] = None) -> list[PathPoint]:
     """Follow the sheet's equilibrium from flat under rising cushion volume.
 
     Parameters
@@ -447,11 +546,17 @@ def trace_path(sheet: Sheet, volume_step_m3: float, stop: Callable[[PathPoint], 
     stop : callable
         ``stop(point) -> bool``; the path ends after the first point for which it is True.
     tolerance : float
-        Newton stops when the largest out-of-balance force is below ``tolerance`` times the
-        largest load component [-] and the volume is met to ``tolerance`` of the step.
+        Newton stops when its last correction moved no unknown by more than ``tolerance``
+        times the sheet's extent (coordinates in m, edge rotations in rad) and the pressure
+        by no more than ``tolerance`` of itself [-]; 1e-8 is 10 nm on a 1 m panel.
     start : ndarray, optional
-        Free unknowns of an unloaded equilibrium to start from (a moulded shape); default
-        the flat reference.
+        Free unknowns of an unloaded equilibrium to start from (a moulded shape), those of
+        ``system``; default the flat reference.
+    system : SheetSystem or MirroredSystem, optional
+        The equations to solve, default ``SheetSystem(sheet)``; a
+        :class:`~.symmetry.MirroredSystem` of the sheet follows its symmetric path on one
+        symmetry cell's unknowns (the points' ``unknowns`` and positions are the whole
+        sheet's).
 
     Returns
     -------
@@ -461,14 +566,14 @@ def trace_path(sheet: Sheet, volume_step_m3: float, stop: Callable[[PathPoint], 
         a pressure maximum (a limit point: snap-through at a set pressure) and a loss of
         stability at a set volume (a bifurcation) show in the path.
     """
-    system = SheetSystem(sheet)
-    values = (system.reference[system.free].copy() if start is None
+    system = SheetSystem(sheet) if system is None else system
+    values = (system.rest_values() if start is None
               else np.asarray(start, dtype=np.float64).copy())
     positions = system.positions(values)
     volume = system.volume_m3(values)
     membrane, bending = system.energies_j(values)
-    points = [PathPoint(0.0, volume, positions, membrane, bending, 0, 0.0, values,
-                        *_stability(system, values, 0.0))]
+    points = [PathPoint(0.0, volume, positions, membrane, bending, 0, 0.0,
+                        system.sheet_unknowns(values), *_stability(system, values, 0.0))]
     pressure = 0.0
     step = volume_step_m3
     previous = None
@@ -495,7 +600,7 @@ def trace_path(sheet: Sheet, volume_step_m3: float, stop: Callable[[PathPoint], 
         positions = system.positions(values)
         membrane, bending = system.energies_j(values)
         point = PathPoint(pressure, volume, positions, membrane, bending, iterations, residual,
-                          values, *_stability(system, values, pressure))
+                          system.sheet_unknowns(values), *_stability(system, values, pressure))
         points.append(point)
         if stop(point):
             break
@@ -504,7 +609,7 @@ def trace_path(sheet: Sheet, volume_step_m3: float, stop: Callable[[PathPoint], 
     return points
 
 
-def _newton(system: SheetSystem, values: FloatArray, pressure: float, target: float,
+def _newton(system: 'EquilibriumSystem', values: FloatArray, pressure: float, target: float,
             tolerance: float, max_iterations: int,
             step: float) -> Optional[tuple[FloatArray, float, int, float]]:
     """Newton's method on the bordered system; None when it does not converge.
@@ -541,7 +646,7 @@ def _newton(system: SheetSystem, values: FloatArray, pressure: float, target: fl
         values = values + step_values
         pressure = pressure + pressure_step
         moved = np.max(np.abs(step_values))
-        if (moved <= tolerance * 1e-2 * extent
+        if (moved <= tolerance * extent
                 and abs(pressure_step) <= tolerance * max(abs(pressure), 1e-6)):
             energy_gradient, volume_gradient = system.gradients(values)
             left = np.max(np.abs(energy_gradient - pressure * volume_gradient))
@@ -576,7 +681,8 @@ class PrescribedEquilibrium:
 def solve_prescribed(sheet: Sheet, held_positions_m: npt.ArrayLike,
                      guess_positions_m: npt.ArrayLike, tolerance: float = 1e-10,
                      max_iterations: int = 50,
-                     guess_unknowns: Optional[npt.ArrayLike] = None) -> PrescribedEquilibrium:
+                     guess_unknowns: Optional[npt.ArrayLike] = None,
+                     system: Optional[ReducedSystem] = None) -> PrescribedEquilibrium:
     """Find the equilibrium with the sheet's held coordinates at ``held_positions_m``.
 
     Parameters
@@ -589,21 +695,48 @@ def solve_prescribed(sheet: Sheet, held_positions_m: npt.ArrayLike,
     guess_unknowns : ndarray, optional
         A start with the edge rotations too (the ``unknowns`` of an earlier equilibrium);
         it takes the place of ``guess_positions_m``.
+    system : MirroredSystem, optional
+        Solve on a symmetric sheet's even unknowns (:mod:`.symmetry`); the held values must
+        then be the reference's, and the start is taken to its nearest symmetric shape.
 
     Raises
     ------
     PathError
         When Newton's method does not converge.
     """
-    system = SheetSystem(sheet)
+    whole = SheetSystem(sheet)
     held = np.asarray(held_positions_m, dtype=np.float64).ravel()
     position_dofs = 3 * sheet.node_count
-    system.reference[:position_dofs] = np.where(np.asarray(sheet.fixed).ravel(), held,
-                                                system.reference[:position_dofs])
-    start = system.reference.copy()
+    fixed = np.asarray(sheet.fixed).ravel()
+    if system is not None and not np.array_equal(
+            held[fixed], whole.reference[:position_dofs][fixed]):
+        raise ValueError('a mirrored system holds its coordinates at the reference')
+    whole.reference[:position_dofs] = np.where(fixed, held, whole.reference[:position_dofs])
+    start = whole.reference.copy()
     start[:position_dofs] = np.asarray(guess_positions_m, dtype=np.float64).ravel()
-    values = (start[system.free] if guess_unknowns is None
+    values = (start[whole.free] if guess_unknowns is None
               else np.asarray(guess_unknowns, dtype=np.float64).copy())
+    solver: EquilibriumSystem = whole
+    if system is not None:
+        solver, values = system, system.restrict_sheet(values)
+    values, iterations = _minimise(solver, values, tolerance, max_iterations)
+    values = solver.sheet_unknowns(values)
+    unknowns = whole.full(values)
+    full_gradient = np.zeros(whole.size_all)
+    for group in whole._groups[:2]:
+        local = group.function(unknowns[group.dofs])
+        full_gradient += np.bincount(group.dofs.ravel(), weights=local.ravel(),
+                                     minlength=whole.size_all)
+    reactions = np.where(fixed, full_gradient[:position_dofs], 0.0)
+    membrane, bending = whole.energies_j(values)
+    return PrescribedEquilibrium(whole.positions(values), reactions.reshape(-1, 3), membrane,
+                                 bending, iterations, whole.curvatures_per_m(values),
+                                 values, whole.tilt_sine(values))
+
+
+def _minimise(system: 'EquilibriumSystem', values: FloatArray, tolerance: float,
+              max_iterations: int) -> tuple[FloatArray, int]:
+    """Least strain energy from ``values`` by the modified Newton method with backtracking."""
     energy = sum(system.energies_j(values))
     for iteration in range(1, max_iterations + 1):
         gradient, _ = system.gradients(values)
@@ -619,21 +752,11 @@ def solve_prescribed(sheet: Sheet, held_positions_m: npt.ArrayLike,
             trial = sum(system.energies_j(values + step))
         energy = trial
         values = values + step
-        moves = step[system.free < position_dofs]
+        moves = step[system.moves_positions]
         # With every coordinate held only the edge rotations [rad] move.
         if (np.max(np.abs(moves)) <= tolerance * system.extent_m if moves.size
                 else np.max(np.abs(step)) <= tolerance):
             break
     else:
         raise PathError(f'no equilibrium found in {max_iterations} Newton iterations')
-    unknowns = system.full(values)
-    full_gradient = np.zeros(system.size_all)
-    for group in system._groups[:2]:
-        local = group.function(unknowns[group.dofs])
-        full_gradient += np.bincount(group.dofs.ravel(), weights=local.ravel(),
-                                     minlength=system.size_all)
-    reactions = np.where(np.asarray(sheet.fixed).ravel(), full_gradient[:position_dofs], 0.0)
-    membrane, bending = system.energies_j(values)
-    return PrescribedEquilibrium(system.positions(values), reactions.reshape(-1, 3), membrane,
-                                 bending, iteration, system.curvatures_per_m(values), values,
-                                 system.tilt_sine(values))
+    return values, iteration

@@ -27,6 +27,7 @@ has rest tilts ``beta0`` and the energy of ``sin(beta) - sin(beta0)``: its secon
 form is measured from the moulded one, on the flat reference metric.
 """
 
+import copy
 from typing import Optional
 
 import numpy as np
@@ -85,6 +86,15 @@ class MidEdgeBending:
         self.quadratic = _face_quadratic(corners, self.shape_basis, plate_stiffness_nm,
                                          poisson_ratio)
         self.stencil = np.concatenate([faces, self.wings], axis=1)
+
+    def subset(self, faces: npt.ArrayLike) -> 'MidEdgeBending':
+        """Return the same bending restricted to some faces: their stencils, every edge."""
+        chosen = np.asarray(faces, dtype=np.int64)
+        part = copy.copy(self)
+        for name in ('rest_sine', 'faces', 'edges', 'side', 'interior', 'wings',
+                     'shape_basis', 'quadratic', 'stencil'):
+            setattr(part, name, np.ascontiguousarray(getattr(self, name)[chosen]))
+        return part
 
     def local_energy(self, local: FloatArray) -> FloatArray:
         """Bending energy per face ``(m,)`` [J] of local unknowns ``(m, 21)``."""

@@ -183,6 +183,22 @@ def structural_fold_table(panel, steps, mesh=None, rrd_path=None):
         lines.append(f'pressure maximum {path.pressure_pa[index] / 1e3:.2f} kPa at '
                      f'{math.degrees(path.apex_fold_rad[index]):.1f} deg apex fold: beyond it a '
                      f'pressure regulator snaps the panel through')
+    for index in path.bifurcations:
+        lines.append(f'bifurcation after {path.pressure_pa[index] / 1e3:.2f} kPa at '
+                     f'{math.degrees(path.apex_fold_rad[index]):.1f} deg apex fold: stability '
+                     f'lost with the air held too, the panel leaves this path')
+    for index, name in path.symmetry_breaking:
+        lines.append(f'stability lost in a mode {name} ({MODE_WORDS.get(name, name)}) at '
+                     f'{path.air_m3[index] * 1e3:.3g} L of air, '
+                     f'{path.pressure_pa[index] / 1e3:.2f} kPa, '
+                     f'{math.degrees(path.apex_fold_rad[index]):.1f} deg apex fold: beyond it '
+                     f'the panel leaves the symmetric path this table follows')
+    for index in path.jumps:
+        lines.append(f'jump to another equilibrium between {path.air_m3[index - 1] * 1e3:.3g} '
+                     f'and {path.air_m3[index] * 1e3:.3g} L of air (apex fold '
+                     f'{math.degrees(path.apex_fold_rad[index - 1]):.1f} -> '
+                     f'{math.degrees(path.apex_fold_rad[index]):.1f} deg): the panel snaps '
+                     f'there, the energy balance of that step does not hold')
     reached = math.degrees(float(np.max(path.apex_fold_rad)))
     if path.ended == 'closed':
         lines.append(f'the path reached the closed fold ({reached:.1f} deg)')
@@ -201,6 +217,12 @@ def structural_fold_table(panel, steps, mesh=None, rrd_path=None):
         lines.append(f'Rerun recording {rrd_path}: the sheet at {len(path.pressure_pa)} '
                      f'equilibria, coloured by strain against the allowable')
     return lines
+
+
+#: The quad panel's symmetry classes in words (``StructuralPath.symmetry_breaking``).
+MODE_WORDS = {'odd in y': 'one flap closing ahead of the other',
+              'odd in x': 'one end of the span ahead of the other',
+              'odd in x and y': 'the flaps twisting in opposite senses'}
 
 
 def _structural_heading(panel, mesh, path):

@@ -121,6 +121,14 @@ def test_a_panel_that_snaps_or_does_not_close_gets_no_map(cache, path, monkeypat
     with pytest.raises(ValueError, match=r'does not close in the structure \(no equilibrium '
                                          r'found beyond 19.2 L at 445 Pa\): no structural'):
         structural_tables(PANEL, MESH, SAMPLES)
+    # A path that closes but loses stability with the air held too (a bifurcation).
+    flags = np.ones(len(path.pressure_pa), dtype=bool)
+    flags[3:] = False
+    crossed = replace(path, ended='closed', stable_at_pressure=flags, stable_at_volume=flags)
+    monkeypatch.setattr(cushion_tables, 'structural_path', lambda *args, **kwargs: crossed)
+    with pytest.raises(ValueError, match=r'not stable with the pressure held from .* on \(a '
+                                         r'bifurcation\): no cushion map'):
+        structural_tables(PANEL, MESH, SAMPLES)
     with pytest.raises(TypeError, match='quad panels'):
         structural_tables(object(), MESH, SAMPLES)
     for samples in (2, 3.0, True):

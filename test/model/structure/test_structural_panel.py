@@ -28,7 +28,7 @@ def panel_sheet():
 @pytest.fixture(scope='module')
 def path():
     return structural_path(DEMONSTRATOR_ACTUATED, COARSE, target_fold_rad=TARGET_FOLD_RAD,
-                           steps=40)
+                           steps=48)
 
 
 def test_the_hinge_bands_lie_between_arcs_concentric_with_the_drawn_fold_line(panel_sheet):
@@ -149,10 +149,61 @@ def test_closures_beyond_the_path_are_not_invented(path):
 def test_a_pressure_maximum_is_the_last_point_held_by_a_regulator():
     flags = np.array([True, True, True, False, False, True])
     zeros = np.zeros(6)
-    path = StructuralPath(
-        pressure_pa=zeros, air_m3=zeros, apex_fold_rad=zeros, support_fold_rad=zeros,
-        fold_along_rad=np.zeros((6, 2)), tip_travel_m=zeros, support_travel_m=zeros,
-        peak_strain={},
-        strain_energy_j=zeros, stable_at_pressure=flags, stable_at_volume=flags,
-        ended='closed', node_count=10, moulding_energy_j=0.0)
-    assert list(path.limit_points) == [2]
+
+    def path(held):
+        return StructuralPath(
+            pressure_pa=zeros, air_m3=zeros, apex_fold_rad=zeros, support_fold_rad=zeros,
+            fold_along_rad=np.zeros((6, 2)), tip_travel_m=zeros, support_travel_m=zeros,
+            peak_strain={},
+            strain_energy_j=zeros, stable_at_pressure=flags, stable_at_volume=held,
+            ended='closed', node_count=10, moulding_energy_j=0.0)
+
+    # Held with the air held beyond it: a pressure maximum, no bifurcation.
+    maximum = path(np.ones(6, dtype=bool))
+    assert list(maximum.limit_points) == [2] and list(maximum.bifurcations) == []
+    # Lost with the air held too: a bifurcation, not a pressure maximum.
+    crossing = path(flags)
+    assert list(crossing.limit_points) == [] and list(crossing.bifurcations) == [2]
+
+
+def _synthetic_path(pressure, air, energy, negatives=None, names=('whole',)):
+    count = len(pressure)
+    zeros = np.zeros(count)
+    flags = np.ones(count, dtype=bool)
+    return StructuralPath(
+        pressure_pa=np.asarray(pressure, dtype=float), air_m3=np.asarray(air, dtype=float),
+        apex_fold_rad=zeros, support_fold_rad=zeros, fold_along_rad=np.zeros((count, 2)),
+        tip_travel_m=zeros, support_travel_m=zeros, peak_strain={},
+        strain_energy_j=np.asarray(energy, dtype=float), stable_at_pressure=flags,
+        stable_at_volume=flags, ended='closed', node_count=10, moulding_energy_j=0.0,
+        negative_by_class=None if negatives is None else np.asarray(negatives),
+        class_names=names)
+
+
+def test_a_step_whose_strain_energy_leaves_the_cushions_work_bounds_is_a_jump():
+    air = [0.0, 1e-3, 2e-3, 3e-3, 4e-3]
+    pressure = [0.0, 1000.0, 2000.0, 1500.0, 1600.0]
+    # Work bounds per step: [0, 1], [1, 2], [1.5, 2], [1.5, 1.6] J.
+    smooth = [0.0, 0.5, 2.0, 3.9, 5.45]
+    assert list(_synthetic_path(pressure, air, smooth).jumps) == []
+    # At a bound, and within 1 % of the step's larger bound beyond it: smooth; beyond: a jump.
+    for stored, jumps in (([1.0, 2.0, 1.5, 1.6], []), ([1.0, 2.019, 1.481, 1.5], []),
+                          ([1.0, 2.021, 1.5, 1.6], [2]), ([1.0, 2.0, 1.479, 1.6], [3])):
+        energy = np.concatenate([[0.0], np.cumsum(stored)])
+        assert list(_synthetic_path(pressure, air, energy).jumps) == jumps
+    released = [0.0, 0.5, 2.0, 0.5, 2.05]  # energy falls over step 3: released in a snap
+    assert list(_synthetic_path(pressure, air, released).jumps) == [3]
+
+
+def test_the_first_unstable_odd_mode_is_where_the_symmetric_path_stops_being_the_panels():
+    names = ('even', 'odd in y', 'odd in x', 'odd in x and y')
+    negatives = [[0, 0, 0, 0], [0, 0, 0, 0], [1, 0, 0, 0], [1, 1, 0, 0], [0, 2, 0, 1],
+                 [0, 2, 0, 1]]
+    path = _synthetic_path(np.arange(6.0), np.arange(6.0), np.zeros(6), negatives, names)
+    assert path.symmetry_breaking == [(3, 'odd in y'), (4, 'odd in x and y')]
+    # The even class losing stability is a pressure maximum or a jump, not a bifurcation.
+    assert _synthetic_path(np.arange(3.0), np.arange(3.0), np.zeros(3),
+                           [[0, 0, 0, 0], [1, 0, 0, 0], [2, 0, 0, 0]],
+                           names).symmetry_breaking == []
+    assert _synthetic_path(np.arange(3.0), np.arange(3.0), np.zeros(3),
+                           [[0], [1], [1]]).symmetry_breaking == []

@@ -48,7 +48,9 @@ def test_the_hexagon_table_says_where_its_path_ended():
     assert all(float(row[4]) > 0.0 for row in rows[1:])
     assert rows[2][3] == '-'
     ended = [line for line in lines if line.startswith('the path ended at ')]
-    assert len(ended) == 1 and 'no equilibrium found' in ended[0]
+    # On this mesh the module unfolds at its apex and the path runs to its air limit
+    # (measured); the line says so.
+    assert len(ended) == 1 and 'not closed with 38.5 L of air' in ended[0]
     assert any(line.startswith('a mesh coarser than the default') for line in lines)
 
 
@@ -76,3 +78,18 @@ def test_help_names_the_structural_columns(capsys):
     for name, _, _, meaning in fold_table.STRUCTURAL_COLUMNS:
         assert f'{name:<16} {meaning}' in text
     assert '--model {kinematic,structural}' in text
+
+
+def test_the_table_names_a_symmetry_breaking_mode_and_a_jump(monkeypatch):
+    # Neither happens on the quick mesh: the path's findings are set here, the lines read.
+    from flectofold_model.structure.panel import StructuralPath
+    monkeypatch.setattr(StructuralPath, 'symmetry_breaking',
+                        property(lambda path: [(3, 'odd in y')]))
+    monkeypatch.setattr(StructuralPath, 'jumps', property(lambda path: np.array([5])))
+    lines = fold_table.structural_fold_table(DEMONSTRATOR_MODULE, 5, QUICK)
+    broken = [line for line in lines if line.startswith('stability lost in a mode odd in y')]
+    assert len(broken) == 1
+    assert '(one flap closing ahead of the other)' in broken[0]
+    assert broken[0].endswith('the panel leaves the symmetric path this table follows')
+    jumped = [line for line in lines if line.startswith('jump to another equilibrium between')]
+    assert len(jumped) == 1 and 'the energy balance of that step does not hold' in jumped[0]
