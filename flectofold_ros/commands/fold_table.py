@@ -264,9 +264,10 @@ def hexagon_fold_table(panel, steps):
     lines += _table(HEXAGON_COLUMNS, rows)
     lines.append('fold: apex fold angle (the model); vertex in: R - sqrt(R^2 - rise^2); '
                  'amplification: tip travel / rise travelled since open')
-    lines.append('mechanics: on the structural sheet (--model structural) this panel does not '
-                 'fold under its cushion: it rises as one cone and its creases stay nearly '
-                 'flat at the apexes (msg_docs/structure.md)')
+    lines.append('mechanics: on the structural sheet (--model structural) this panel, moulded '
+                 'with its 5 deg pre-fold, does not fold under its cushion: it rises as one '
+                 'cone and its creases stay nearly flat at the apexes; moulded with 15 deg or '
+                 'more it folds but loses stability at 45-65 deg (msg_docs/structure.md)')
     return lines + _strain_lines(actuated)
 
 
