@@ -32,8 +32,9 @@ import time
 import numpy as np
 
 from flectofold_model import PROTOTYPE
-from flectofold_model.actuation import (DEMONSTRATOR_ACTUATED, FLECTOLINE_ACTUATED,
-                                        HEXAGON_ACTUATED, radius_study, StripCushion)
+from flectofold_model.actuation import (ActuationModel, DEMONSTRATOR_ACTUATED,
+                                        FLECTOLINE_ACTUATED, HEXAGON_ACTUATED, radius_study,
+                                        StripCushion)
 from flectofold_model.actuation.statics import actuated_like
 from flectofold_model.structure.comparison import kinematic_rows, structural_rows
 from flectofold_model.structure.hexagon import hexagon_structural_path, HexagonMesh
@@ -81,6 +82,15 @@ def compare(name, actuated, mesh):
               f'{ours.hinge_strain[i] * 100:9.2f} {theirs.hinge_strain[i] * 100:4.2f}  '
               f'{math.degrees(ours.support_fold_rad[i]):13.1f}  '
               f'{travel[i] * 1e3 if np.isfinite(ours.pressure_pa[i]) else math.nan:19.2f}')
+    if path.closed_wind is not None:
+        wind = path.closed_wind
+        statics = ActuationModel([actuated]).wind_response(wind.wind_pressure_pa)
+        print(f"closed, {wind.wind_pressure_pa / 1e3:g} kN/m2 on the flaps' inner faces, "
+              f'cushion pressure held: tip A gives {wind.tip_deflection_m * 1e3:.1f} mm, '
+              f'apex fold {math.degrees(wind.apex_fold_change_rad):+.1f} deg (linear), '
+              f'stiffness {wind.stiffness_n_per_m:.0f} N/m per flap (energy statics: '
+              f'{float(statics.tip_deflection_m[0]) * 1e3:.1f} mm, '
+              f'{float(statics.stiffness_n_per_m[0]):.0f} N/m)')
     for index in path.limit_points:
         print(f'pressure maximum {path.pressure_pa[index] / 1e3:.2f} kPa at '
               f'{math.degrees(path.apex_fold_rad[index]):.1f} deg')

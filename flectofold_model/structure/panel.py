@@ -117,6 +117,11 @@ MOULD_STEPS = 2
 #: closed ends (the prototype's structure closes with 1.5 times it).
 AIR_LIMIT_FACTOR = 2.0
 
+#: Uniform pressure on the closed flaps' inner faces of :attr:`StructuralPath.closed_wind`
+#: [Pa]: the 1.0 kN/m2 of the published wind-load case (Koerner et al.), as the energy
+#: statics' ``wind_response`` takes it.
+WIND_PRESSURE_PA = 1000.0
+
 
 def check_mesh_counts(mesh: MeshCounts) -> None:
     """Refuse a structured mesh's counts that cannot be meshed (either panel kind).
@@ -387,6 +392,29 @@ def _middle(folds: FloatArray) -> FloatArray:
 
 
 @dataclass(frozen=True)
+class WindOnFlaps:
+    """How far the closed panel's flaps give under a uniform pressure on their inner faces.
+
+    The linear response at the last equilibrium of the path, the cushion pressure held:
+    ``K du = f`` with ``K`` the tangent there and ``f`` the pressure's load on the flap
+    triangles (normal to them, on the faces that look at each other when closed, pushing
+    the flaps open), the counterpart of the energy statics' ``ActuationModel.wind_response``.
+    """
+
+    wind_pressure_pa: float
+    """Pressure on the flaps' inner faces [Pa]."""
+    flap_force_n: float
+    """That pressure times the area of one flap as it is [N]."""
+    tip_deflection_m: float
+    """Travel of flap tip A it causes [m]."""
+    stiffness_n_per_m: float
+    """``flap_force_n / tip_deflection_m`` [N/m]: larger is stiffer."""
+    apex_fold_change_rad: float
+    """Change of the apex fold it causes, to first order [rad]: negative where the flaps
+    open."""
+
+
+@dataclass(frozen=True)
 class StructuralPath:
     """The equilibrium path of one panel from open toward closed, one entry per equilibrium.
 
@@ -443,6 +471,8 @@ class StructuralPath:
     class_names: tuple[str, ...] = ('whole',)
     """The classes of :attr:`negative_by_class` (``'even'``, ``'odd in y'``, ... or
     ``'whole'`` for a panel solved without its symmetry)."""
+    closed_wind: Optional['WindOnFlaps'] = None
+    """The closed panel's give under wind on its flaps (quad panels whose path closed)."""
 
     @property
     def limit_points(self) -> IntArray:
@@ -577,8 +607,47 @@ def trace_panel_path(panel_sheet: MeshedPanel, prefold_rad: float, target_fold_r
                             tolerance=tolerance, start=values, system=system)
     except PathError as error:
         points, ended[0] = error.points, str(error)
-    return _path_from_points(panel_sheet, sheet, points, ended[0], moulding_energy,
+    path = _path_from_points(panel_sheet, sheet, points, ended[0], moulding_energy,
                              system.class_names)
+    if ended[0] == 'closed' and isinstance(panel_sheet, PanelSheet):
+        path = replace(path, closed_wind=wind_on_flaps(panel_sheet, sheet, system, points[-1]))
+    return path
+
+
+def wind_on_flaps(panel_sheet: 'PanelSheet', sheet: Sheet, system: 'SheetSystem | MirroredSystem',
+                  point: PathPoint, wind_pressure_pa: float = WIND_PRESSURE_PA) -> WindOnFlaps:
+    """Return the flaps' give at an equilibrium of the path under wind on their inner faces.
+
+    ``sheet`` is the moulded sheet the path was traced on and ``system`` its equations;
+    the cushion's pressure is held at the point's. See :class:`WindOnFlaps`.
+    """
+    from flectofold_model.structure.sheet import factorise
+
+    flaps = np.asarray(sheet.zone) == FLAP
+    unknowns = cast(FloatArray, point.unknowns)  # trace_path gives every point its own
+    values = (unknowns if isinstance(system, SheetSystem)
+              else system.restrict_sheet(unknowns))
+    positions = system.positions(values)
+    triangles = np.asarray(sheet.triangles)[flaps]
+    corners = positions[triangles]
+    # Counter-clockwise in the flat pattern: the area normal of a flap triangle points out of
+    # its +z face, the face that looks at the other flap when closed; pressure on that face
+    # pushes against it, a third of the triangle's load on each corner.
+    area_normal = 0.5 * np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+    forces = np.zeros((sheet.node_count, 3))
+    np.add.at(forces, triangles, np.repeat(-wind_pressure_pa / 3.0 * area_normal[:, None, :],
+                                           3, axis=1))
+    change = factorise(system.hessians(values, point.pressure_pa)).solve(
+        system.nodal_load(forces))
+    tip = panel_sheet.tip_node
+    # Positions are linear in the unknowns: the tip's travel is exact for the linear change;
+    # the fold is not, so its first-order change is read over a thousandth of it.
+    deflection = float(np.linalg.norm(system.positions(values + change)[tip] - positions[tip]))
+    fold = (lambda moved: float(panel_sheet.apex_fold_rad(panel_sheet.fold_angles_rad(moved))))
+    fold_change = (fold(system.positions(values + 1e-3 * change)) - fold(positions)) / 1e-3
+    flap_area = float(np.linalg.norm(area_normal, axis=1).sum()) / 2.0  # one flap, as it is
+    force = wind_pressure_pa * flap_area
+    return WindOnFlaps(wind_pressure_pa, force, deflection, force / deflection, fold_change)
 
 
 def equilibrium_system(panel_sheet: MeshedPanel,

@@ -222,6 +222,12 @@ class SheetSystem:
         """Return the sheet's free unknowns of a solution: the values themselves."""
         return free_values
 
+    def nodal_load(self, forces_n: FloatArray) -> FloatArray:
+        """Return the load on the free unknowns of forces ``(n, 3)`` on the nodes [N]."""
+        full = np.zeros(self.size_all)
+        full[:3 * self.sheet.node_count] = np.asarray(forces_n, dtype=np.float64).ravel()
+        return full[self.free]
+
     class_names: tuple[str, ...] = ('whole',)
     """The one block's name (:class:`~.symmetry.MirroredSystem` has one per class)."""
 

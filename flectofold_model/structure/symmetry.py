@@ -223,6 +223,10 @@ class MirroredSystem:
         """Return the whole sheet's free unknowns (its own held coordinates held)."""
         return self._all(values)[self._sheet_free]
 
+    def nodal_load(self, forces_n: FloatArray) -> FloatArray:
+        """Return the load on the even unknowns of symmetric forces ``(n, 3)`` on the nodes."""
+        return np.asarray(self.basis.T @ self.cell.nodal_load(forces_n))
+
     def positions(self, values: FloatArray) -> FloatArray:
         """Node positions ``(n, 3)`` of the whole sheet [m]."""
         return self._all(values)[:3 * self.sheet.node_count].reshape(-1, 3)

@@ -183,6 +183,12 @@ def structural_fold_table(panel, steps, mesh=None, rrd_path=None):
         lines.append(f'pressure maximum {path.pressure_pa[index] / 1e3:.2f} kPa at '
                      f'{math.degrees(path.apex_fold_rad[index]):.1f} deg apex fold: beyond it a '
                      f'pressure regulator snaps the panel through')
+    if path.closed_wind is not None:
+        wind = path.closed_wind
+        lines.append(f"closed, {wind.wind_pressure_pa / 1e3:g} kN/m2 on the flaps' inner faces "
+                     f'(cushion pressure held): tip A gives {wind.tip_deflection_m * 1e3:.1f} '
+                     f'mm to first order, a stiffness of {wind.stiffness_n_per_m:.0f} N/m per '
+                     f'flap')
     for index in path.bifurcations:
         lines.append(f'bifurcation after {path.pressure_pa[index] / 1e3:.2f} kPa at '
                      f'{math.degrees(path.apex_fold_rad[index]):.1f} deg apex fold: stability '

@@ -9,10 +9,11 @@ import pytest
 from flectofold_model.actuation import DEMONSTRATOR_ACTUATED
 from flectofold_model.kinematics.panel import PanelGeometry
 from flectofold_model.structure.comparison import kinematic_rows, structural_rows
-from flectofold_model.structure.panel import (apex_fold_angle_rad, build_panel_sheet, FLAP,
-                                              HINGE, MIDRIB, mould_prefold, PanelMesh,
-                                              structural_path, StructuralPath)
-from flectofold_model.structure.sheet import SheetSystem
+from flectofold_model.structure.panel import (apex_fold_angle_rad, build_panel_sheet,
+                                              equilibrium_system, FLAP, HINGE, MIDRIB,
+                                              mould_prefold, PanelMesh, structural_path,
+                                              StructuralPath, wind_on_flaps)
+from flectofold_model.structure.sheet import SheetSystem, trace_path
 
 COARSE = PanelMesh(20, 2, 2, 2)
 #: The path of the tests ends at a 36 deg apex fold (closure 0.36), well before the
@@ -207,3 +208,30 @@ def test_the_first_unstable_odd_mode_is_where_the_symmetric_path_stops_being_the
                            names).symmetry_breaking == []
     assert _synthetic_path(np.arange(3.0), np.arange(3.0), np.zeros(3),
                            [[0], [1], [1]]).symmetry_breaking == []
+
+
+def test_wind_on_the_closed_flaps_inner_faces_opens_them_in_proportion(path, panel_sheet):
+    wind = path.closed_wind
+    assert wind is not None and wind.wind_pressure_pa == 1000.0
+    flaps = panel_sheet.sheet.zone == FLAP
+    area = SheetSystem(panel_sheet.sheet).area[flaps].sum() / 2.0
+    # The flaps' area as they are at closure: the flat pattern's, stretched by at most 1e-4.
+    assert wind.flap_force_n == pytest.approx(1000.0 * area, rel=1e-4)
+    assert wind.apex_fold_change_rad < 0.0  # the flaps open
+    assert wind.stiffness_n_per_m == pytest.approx(wind.flap_force_n / wind.tip_deflection_m)
+    # Linear: twice the pressure, twice the travel and the same stiffness.
+    sheet, start, _ = mould_prefold(panel_sheet, DEMONSTRATOR_ACTUATED.geometry.prefold_rad)
+    system = equilibrium_system(panel_sheet, sheet)
+    last = trace_path(sheet, 1e-3, lambda point: point.pressure_pa > 300.0,
+                      start=system.restrict_sheet(start), system=system)[-1]
+    single, double = (wind_on_flaps(panel_sheet, sheet, system, last, pressure)
+                      for pressure in (1000.0, 2000.0))
+    assert double.tip_deflection_m == pytest.approx(2.0 * single.tip_deflection_m, rel=1e-9)
+    assert double.stiffness_n_per_m == pytest.approx(single.stiffness_n_per_m, rel=1e-9)
+
+
+def test_a_path_that_did_not_close_has_no_wind_figure():
+    ended = structural_path(DEMONSTRATOR_ACTUATED, COARSE, target_fold_rad=math.radians(36.0),
+                            steps=48, air_estimate_m3=1e-4)
+    assert ended.ended.startswith('not closed with')
+    assert ended.closed_wind is None

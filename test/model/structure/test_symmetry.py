@@ -127,6 +127,11 @@ def test_the_quad_path_on_its_cell_is_the_whole_sheets_path(monkeypatch):
     assert ours.peak_strain['hinge'] == pytest.approx(whole.peak_strain['hinge'], rel=1e-6)
     assert np.array_equal(ours.stable_at_pressure, whole.stable_at_pressure)
     assert np.array_equal(ours.stable_at_volume, whole.stable_at_volume)
+    # The wind on the closed flaps, loaded through either system's unknowns.
+    assert ours.closed_wind.tip_deflection_m == pytest.approx(
+        whole.closed_wind.tip_deflection_m, rel=1e-6)
+    assert ours.closed_wind.apex_fold_change_rad == pytest.approx(
+        whole.closed_wind.apex_fold_change_rad, rel=1e-5)
 
 
 def test_a_sheet_that_is_not_its_mirror_image_is_refused(panel_sheet):

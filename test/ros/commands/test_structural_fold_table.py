@@ -32,6 +32,8 @@ def test_the_structural_table_prints_both_models_at_each_closure():
     assert rows[0][-1] == 'yes'
     assert any(line.startswith('pressure maximum ') for line in lines[7:])
     assert any(line.startswith('the path reached the closed fold') for line in lines[7:])
+    wind = [line for line in lines if line.startswith("closed, 1 kN/m2 on the flaps' inner")]
+    assert len(wind) == 1 and wind[0].endswith(' N/m per flap')
     assert any(line.startswith('a mesh coarser than the default') for line in lines[7:])
     assert lines[-1].startswith('peak hinge strain on the path ')
     assert 'against an allowable 0.7 %' in lines[-1]
