@@ -92,6 +92,10 @@ class Presence:
                 executor.spin_once(timeout_sec=0.05)
         finally:
             executor.remove_node(self.node)
+            # Its guard conditions now, while the context lives: left to the garbage
+            # collector, which may come after rclpy's shutdown, they print "Exception ignored
+            # ... InvalidHandle" at exit (a refused start's stderr is then not one line).
+            executor.shutdown()
         return presence.conflicts(self.own, self.others.values())
 
     def _unheard(self):
