@@ -598,10 +598,7 @@ def trace_panel_path(panel_sheet: MeshedPanel, prefold_rad: float, target_fold_r
                 return True
             return False
 
-        if isinstance(system, SheetSystem):
-            values = start
-        else:
-            values = system.restrict_sheet(start)
+        values = system.restrict_sheet(start)
         opened = system.volume_m3(values)
         points = trace_path(sheet, air_estimate_m3 / steps, reached, max_steps=8 * steps,
                             tolerance=tolerance, start=values, system=system)
@@ -625,8 +622,7 @@ def wind_on_flaps(panel_sheet: 'PanelSheet', sheet: Sheet, system: 'SheetSystem 
 
     flaps = np.asarray(sheet.zone) == FLAP
     unknowns = cast(FloatArray, point.unknowns)  # trace_path gives every point its own
-    values = (unknowns if isinstance(system, SheetSystem)
-              else system.restrict_sheet(unknowns))
+    values = system.restrict_sheet(unknowns)
     positions = system.positions(values)
     triangles = np.asarray(sheet.triangles)[flaps]
     corners = positions[triangles]

@@ -222,6 +222,10 @@ class SheetSystem:
         """Return the sheet's free unknowns of a solution: the values themselves."""
         return free_values
 
+    def restrict_sheet(self, sheet_unknowns: npt.ArrayLike) -> FloatArray:
+        """Return the unknowns of a shape given as the sheet's free unknowns: a copy."""
+        return np.array(sheet_unknowns, dtype=np.float64)
+
     def nodal_load(self, forces_n: FloatArray) -> FloatArray:
         """Return the load on the free unknowns of forces ``(n, 3)`` on the nodes [N]."""
         full = np.zeros(self.size_all)
@@ -447,6 +451,9 @@ class EquilibriumSystem(Protocol):
     def sheet_unknowns(self, values: FloatArray) -> FloatArray:
         """Return the sheet's own free unknowns of a solution."""
 
+    def restrict_sheet(self, sheet_unknowns: npt.ArrayLike) -> FloatArray:
+        """Return its unknowns nearest to the sheet's own free unknowns of a shape."""
+
     def positions(self, values: FloatArray) -> FloatArray:
         """Node positions ``(n, 3)`` [m]."""
 
@@ -464,13 +471,6 @@ class EquilibriumSystem(Protocol):
 
     def tangent_blocks(self, values: FloatArray, pressure_pa: float) -> list[csc_matrix]:
         """Return the whole tangent in blocks, the one with the volume gradient first."""
-
-
-class ReducedSystem(EquilibriumSystem, Protocol):
-    """A system over fewer unknowns than the sheet's: :class:`~.symmetry.MirroredSystem`."""
-
-    def restrict_sheet(self, sheet_unknowns: npt.ArrayLike) -> FloatArray:
-        """Return its unknowns nearest to the sheet's own free unknowns of a shape."""
 
 
 def tangent_inertia(system: 'EquilibriumSystem', values: FloatArray,
@@ -688,7 +688,7 @@ def solve_prescribed(sheet: Sheet, held_positions_m: npt.ArrayLike,
                      guess_positions_m: npt.ArrayLike, tolerance: float = 1e-10,
                      max_iterations: int = 50,
                      guess_unknowns: Optional[npt.ArrayLike] = None,
-                     system: Optional[ReducedSystem] = None) -> PrescribedEquilibrium:
+                     system: Optional[EquilibriumSystem] = None) -> PrescribedEquilibrium:
     """Find the equilibrium with the sheet's held coordinates at ``held_positions_m``.
 
     Parameters
@@ -701,9 +701,10 @@ def solve_prescribed(sheet: Sheet, held_positions_m: npt.ArrayLike,
     guess_unknowns : ndarray, optional
         A start with the edge rotations too (the ``unknowns`` of an earlier equilibrium);
         it takes the place of ``guess_positions_m``.
-    system : MirroredSystem, optional
-        Solve on a symmetric sheet's even unknowns (:mod:`.symmetry`); the held values must
-        then be the reference's, and the start is taken to its nearest symmetric shape.
+    system : SheetSystem or MirroredSystem, optional
+        The equations of ``sheet`` to solve, e.g. a symmetric sheet's even unknowns
+        (:mod:`.symmetry`); the held values must then be the reference's, and the start is
+        taken to its nearest shape in the system's unknowns.
 
     Raises
     ------

@@ -214,7 +214,7 @@ class MirroredSystem:
     def _all(self, values: FloatArray) -> FloatArray:
         unknowns = self.cell.full(np.asarray(self.basis @ values))
         if self._released is not None:
-            node, axis = divmod(self._released, 3)
+            axis = self._released % 3
             shift = self.cell.reference[self._released] - unknowns[self._released]
             unknowns[axis:3 * self.sheet.node_count:3] += shift
         return unknowns
