@@ -7,6 +7,7 @@ namespaces (root and ``ip netns`` needed) and remove them.
 import json
 import os
 from pathlib import Path
+import shutil
 import signal
 import subprocess
 import threading
@@ -27,6 +28,15 @@ while True:
         sys.exit(f'{sys.argv[1]} not running after {sys.argv[2]} s')
     time.sleep(0.02)
 """
+
+
+def skip_without_namespaces():
+    """Skip the calling test, with the reason, where network namespaces cannot be made."""
+    import pytest
+    if os.geteuid() != 0:
+        pytest.skip('needs root: it creates network namespaces (ip netns add)')
+    if shutil.which('ip') is None:
+        pytest.skip("needs iproute2's ip command")
 
 
 def ip_command(*arguments, timeout_s=20):

@@ -17,12 +17,12 @@ what it does not. Needs root and ``ip netns`` (CI has both); skipped otherwise.
 import json
 import os
 from pathlib import Path
-import shutil
 import subprocess
 import sys
 import time
 
-from netns import Child, ip_command, shared_memory_mappings, WAIT_RUNNING
+from netns import (Child, ip_command, shared_memory_mappings, skip_without_namespaces,
+                   WAIT_RUNNING)
 import pytest
 from ros_graph import BIN, domain_for
 
@@ -170,10 +170,7 @@ class Link:
 @pytest.fixture(params=['multicast', 'static_peers'])
 def link(request):
     """Fresh namespaces and links for one network, deleted afterwards whatever happened."""
-    if os.geteuid() != 0:
-        pytest.skip('needs root: it creates network namespaces (ip netns add)')
-    if shutil.which('ip') is None:
-        pytest.skip("needs iproute2's ip command")
+    skip_without_namespaces()
     link = Link(f'ff{os.getpid()}{request.param[0]}', request.param)
     try:
         link.create()

@@ -12,11 +12,10 @@ skipped otherwise. Nothing binds outside the namespaces.
 import json
 import os
 from pathlib import Path
-import shutil
 import subprocess
 import sys
 
-from netns import ip_command
+from netns import ip_command, skip_without_namespaces
 import pytest
 
 ROOT = Path(__file__).resolve().parents[3]
@@ -64,10 +63,7 @@ asyncio.run(main())
 
 @pytest.fixture
 def subnet():
-    if os.geteuid() != 0:
-        pytest.skip('needs root: it creates network namespaces (ip netns add)')
-    if shutil.which('ip') is None:
-        pytest.skip("needs iproute2's ip command")
+    skip_without_namespaces()
     for namespace in NAMESPACES:
         ip_command('netns', 'delete', namespace, timeout_s=30)
         added = ip_command('netns', 'add', namespace, timeout_s=30)

@@ -12,12 +12,12 @@ says what this shows and what it does not. Needs root and ``ip netns``; skipped 
 
 import os
 from pathlib import Path
-import shutil
 import subprocess
 import sys
 import time
 
-from netns import Child, ip_command, shared_memory_mappings, WAIT_RUNNING
+from netns import (Child, ip_command, shared_memory_mappings, skip_without_namespaces,
+                   WAIT_RUNNING)
 import pytest
 from ros_graph import BIN, domain_for
 
@@ -81,10 +81,7 @@ class Network:
 
 @pytest.fixture
 def network():
-    if os.geteuid() != 0:
-        pytest.skip('needs root: it creates network namespaces (ip netns add)')
-    if shutil.which('ip') is None:
-        pytest.skip("needs iproute2's ip command")
+    skip_without_namespaces()
     network = Network(f'fs{os.getpid()}')
     try:
         network.create()
