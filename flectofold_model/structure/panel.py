@@ -317,20 +317,26 @@ def mould_prefold(panel_sheet: MeshedPanel,
     # The hinge's rest curvature is scaled until the unloaded shape's apex fold is the
     # pre-fold (the mid-rib and flaps resist the fold, as the curved fold makes them bend).
     held = np.column_stack([sheet.reference_xy_m, np.zeros(sheet.node_count)])
-    guess, achieved, scale = None, 0.0, 0.0
-    # Raised from flat in steps, then rescaled from the last shape until the fold is met.
+    achieved, scale = 0.0, 0.0
+    # Raised from flat in steps, then rescaled from the last shape until the fold is met;
+    # each solve starts from the shapes before, extrapolated linearly in the scale.
+    shapes = [(0.0, system.reference[system.free].copy())]
     scales = list(np.linspace(0.0, 1.0, MOULD_STEPS + 1)[1:])
     for attempt in range(MOULD_STEPS + MOULD_ATTEMPTS):
         scale = scales[attempt] if attempt < MOULD_STEPS else scale * prefold_rad / achieved
         folded = replace(sheet, rest_tilt_sine=np.clip(scale * rest, -1.0, 1.0))
         system = equilibrium_system(panel_sheet, folded)
+        guess = shapes[-1][1]
+        if len(shapes) > 1:
+            (before, older), (last, newer) = shapes[-2:]
+            guess = newer + (scale - last) / (last - before) * (newer - older)
         try:
             first = solve_prescribed(folded, held, held, guess_unknowns=guess,
                                      system=None if isinstance(system, SheetSystem) else system)
         except PathError as error:
             raise ValueError(f'could not mould the pre-fold {prefold_rad:g} rad on this mesh: '
                              f'{error}') from None
-        guess = first.unknowns
+        shapes.append((scale, cast(FloatArray, first.unknowns)))
         if attempt + 1 >= MOULD_STEPS:
             achieved = float(panel_sheet.apex_fold_rad(
                 panel_sheet.fold_angles_rad(first.positions_m)))

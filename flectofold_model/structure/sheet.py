@@ -204,14 +204,7 @@ class SheetSystem:
     def _tangent_layout(self) -> tuple[IntArray, IntArray, IntArray]:
         """Where each element Hessian entry goes in the tangent's CSC arrays (made once)."""
         if self._layout is None:
-            rows = np.concatenate([g.rows for g in self._groups])
-            cols = np.concatenate([g.cols for g in self._groups])
-            size = self._size
-            # Sorted column by column, the distinct entries are the CSC layout.
-            unique, slot = np.unique(cols * size + rows, return_inverse=True)
-            indptr = np.concatenate([[0], np.cumsum(np.bincount(unique // size,
-                                                                minlength=size))])
-            self._layout = (slot, unique % size, indptr)
+            self._layout = csc_layout(self.entry_rows, self.entry_cols, self._size)
         return self._layout
 
     def rest_values(self) -> FloatArray:
@@ -309,6 +302,17 @@ class SheetSystem:
 
     def hessians(self, free_values: FloatArray, pressure_pa: float) -> csc_matrix:
         """Sparse ``H - p H_V`` over the free unknowns (CSC)."""
+        slot, indices, indptr = self._tangent_layout()
+        data = np.bincount(slot, weights=self.hessian_entries(free_values, pressure_pa),
+                           minlength=len(indices))
+        return csc_matrix((data, indices, indptr), shape=(self._size, self._size))
+
+    def hessian_entries(self, free_values: FloatArray, pressure_pa: float) -> FloatArray:
+        """Every element's entries of ``H - p H_V`` between free unknowns, unsummed.
+
+        In the order of :attr:`entry_rows` and :attr:`entry_cols` (free unknowns): the
+        tangent is their sum at each position.
+        """
         unknowns = self.full(free_values)
         parts = []
         for group in self._groups:
@@ -318,10 +322,32 @@ class SheetSystem:
             else:
                 local = group.hessian(unknowns[group.dofs])
             scale = 1.0 if group.strain else -pressure_pa
-            parts.append(scale * local.reshape(len(local), group.keep.shape[1])[group.keep])
-        slot, indices, indptr = self._tangent_layout()
-        data = np.bincount(slot, weights=np.concatenate(parts), minlength=len(indices))
-        return csc_matrix((data, indices, indptr), shape=(self._size, self._size))
+            keep = group.entries[0]
+            parts.append(scale * local.reshape(len(local), keep.shape[1])[keep])
+        return np.concatenate(parts)
+
+    @property
+    def entry_rows(self) -> IntArray:
+        """Free unknown of each row of :meth:`hessian_entries`."""
+        return np.concatenate([g.entries[1] for g in self._groups])
+
+    @property
+    def entry_cols(self) -> IntArray:
+        """Free unknown of each column of :meth:`hessian_entries`."""
+        return np.concatenate([g.entries[2] for g in self._groups])
+
+
+def csc_layout(rows: IntArray, cols: IntArray,
+               size: int) -> tuple[IntArray, IntArray, IntArray]:
+    """Where entries at ``(rows, cols)`` of a ``size`` square matrix go in CSC arrays.
+
+    Returns ``(slot, indices, indptr)``: the CSC data of the summed entries is
+    ``np.bincount(slot, weights=entries, minlength=len(indices))``.
+    """
+    # Sorted column by column, the distinct entries are the CSC layout.
+    unique, slot = np.unique(cols * size + rows, return_inverse=True)
+    indptr = np.concatenate([[0], np.cumsum(np.bincount(unique // size, minlength=size))])
+    return slot, unique % size, indptr
 
 
 def factorise(matrix: csc_matrix) -> SuperLU:
@@ -393,13 +419,25 @@ class _Group:
         self.function = function
         self.hessian = hessian
         self.strain = bool(strain)
-        per = dofs.shape[1]
-        # A local Hessian's entries row by row: row k // per, column k % per.
-        local = np.arange(per)
-        rows = reduced[dofs[:, np.repeat(local, per)]]
-        cols = reduced[dofs[:, np.tile(local, per)]]
-        self.keep = (rows >= 0) & (cols >= 0)
-        self.rows, self.cols = rows[self.keep], cols[self.keep]
+        self._reduced = reduced
+        self._entries: Optional[tuple[np.ndarray, IntArray, IntArray]] = None
+
+    @property
+    def entries(self) -> tuple[np.ndarray, IntArray, IntArray]:
+        """``(keep, rows, cols)``: which local Hessian entries join free unknowns, and those.
+
+        Made on first use: a system that only evaluates energies and gradients (a whole
+        sheet beside its symmetry cell) never needs them.
+        """
+        if self._entries is None:
+            per = self.dofs.shape[1]
+            # A local Hessian's entries row by row: row k // per, column k % per.
+            local = np.arange(per)
+            rows = self._reduced[self.dofs[:, np.repeat(local, per)]]
+            cols = self._reduced[self.dofs[:, np.tile(local, per)]]
+            keep = (rows >= 0) & (cols >= 0)
+            self._entries = keep, rows[keep], cols[keep]
+        return self._entries
 
 
 @dataclass(frozen=True)

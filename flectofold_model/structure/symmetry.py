@@ -40,7 +40,7 @@ import numpy.typing as npt
 from scipy.sparse import coo_matrix, csc_matrix, diags
 
 from flectofold_model._validate import FloatArray, IntArray
-from flectofold_model.structure.sheet import Sheet, SheetSystem
+from flectofold_model.structure.sheet import csc_layout, Sheet, SheetSystem
 from flectofold_model.structure.shell import MidEdgeBending
 
 
@@ -195,6 +195,8 @@ class MirroredSystem:
             [held, np.zeros(bending.edge_count, dtype=bool)]))
         self.extent_m = self.cell.extent_m
         self.free_count = self.basis.shape[1]
+        self._layouts: dict[int, tuple[IntArray, FloatArray,
+                                       tuple[IntArray, IntArray, IntArray]]] = {}
 
     # The interface of SheetSystem, over the even unknowns.
     def rest_values(self) -> FloatArray:
@@ -252,10 +254,41 @@ class MirroredSystem:
 
     def tangent_blocks(self, values: FloatArray, pressure_pa: float,
                        classes: int = 0) -> list[csc_matrix]:
-        """Return the tangent of each symmetry class (``classes`` of them, 0 all), even first."""
-        cell = self.cell.hessians(np.asarray(self.basis @ values), pressure_pa)
-        chosen = self.blocks if classes == 0 else self.blocks[:classes]
-        return [csc_matrix(self.order * (basis.T @ cell @ basis)) for basis in chosen]
+        """Return the tangent of each symmetry class (``classes`` of them, 0 all), even first.
+
+        Each block is ``order B^T H B`` of the cell's tangent ``H`` and the class's basis
+        ``B``, summed straight from the cell's element entries: every free unknown is in
+        one orbit, so a row of ``B`` has at most one entry and an element entry at
+        ``(r, c)`` lands at ``(column(r), column(c))`` with the product of their signs.
+        """
+        entries = self.cell.hessian_entries(np.asarray(self.basis @ values), pressure_pa)
+        blocks = []
+        for index in range(classes or len(self.blocks)):
+            keep, weight, (slot, indices, indptr) = self._block_layout(index)
+            size = len(indptr) - 1
+            data = np.bincount(slot, weights=weight * entries[keep], minlength=len(indices))
+            blocks.append(csc_matrix((data, indices, indptr), shape=(size, size)))
+        return blocks
+
+    def _block_layout(self, index: int) -> tuple[IntArray, FloatArray,
+                                                 tuple[IntArray, IntArray, IntArray]]:
+        """Return a class's cell entries, their weights and its CSC layout (made once)."""
+        if index not in self._layouts:
+            basis = self.blocks[index]
+            rows, cols = self.cell.entry_rows, self.cell.entry_cols
+            by_row = basis.tocsr()
+            if np.any(np.diff(by_row.indptr) > 1):
+                raise ValueError('a free unknown lies in two orbits')
+            column = np.full(basis.shape[0], -1)
+            sign = np.zeros(basis.shape[0])
+            present = np.flatnonzero(np.diff(by_row.indptr))
+            column[present] = by_row.indices[by_row.indptr[present]]
+            sign[present] = by_row.data[by_row.indptr[present]]
+            keep = np.flatnonzero((column[rows] >= 0) & (column[cols] >= 0))
+            weight = self.order * sign[rows[keep]] * sign[cols[keep]]
+            self._layouts[index] = (keep, weight, csc_layout(
+                column[rows[keep]], column[cols[keep]], basis.shape[1]))
+        return self._layouts[index]
 
 
 def _cell_faces(group: list[tuple[SignedPermutation, tuple[int, ...]]],
