@@ -7,9 +7,10 @@ Everything printed is computed here; CPU is process time of this process.
 * ``--presets``: each preset's structural path on the default mesh beside the reflection model
   (pressure, air, tip travel, hinge strain at closures 0.25 ... 1), where it ends, its pressure
   maximum, and its CPU time against the reflection model's table of the same closures.
-* ``--meshes``: the demonstrator on three meshes (four with ``--finest``), each count doubled
-  from the one before; pressure and tip travel at fixed apex folds and the change per
-  refinement.
+* ``--meshes``: the demonstrator on the meshes 20 / 40 / 80 columns, every count scaled alike
+  (with ``--finest`` also 120 and 160); pressure and tip travel at fixed apex folds and the
+  change per refinement; then at fixed air on the last three meshes, the observed order of
+  convergence and Richardson's estimate of the limit, and each mesh's distance from it.
 * ``--trends``: the demonstrator's apex fold at a set pressure as hinge width, hinge modulus
   and flap modulus change one at a time (the trends Muehlich et al., Biomimetics 6(3):43,
   2021, state for elastomer-GFRP hinges: the fold rises as material stiffness falls and as
@@ -30,6 +31,7 @@ import tempfile
 import time
 
 import numpy as np
+from scipy.optimize import brentq
 
 from flectofold_model import PROTOTYPE
 from flectofold_model.actuation import (ActuationModel, DEMONSTRATOR_ACTUATED,
@@ -90,7 +92,11 @@ def compare(name, actuated, mesh):
               f'apex fold {math.degrees(wind.apex_fold_change_rad):+.1f} deg (linear), '
               f'stiffness {wind.stiffness_n_per_m:.0f} N/m per flap (energy statics: '
               f'{float(statics.tip_deflection_m[0]) * 1e3:.1f} mm, '
-              f'{float(statics.stiffness_n_per_m[0]):.0f} N/m)')
+              f'{float(statics.stiffness_n_per_m[0]):.0f} N/m); valves shut (air held): '
+              f'{wind.air_held_tip_deflection_m * 1e3:.1f} mm, '
+              f'{wind.air_held_stiffness_n_per_m:.0f} N/m, cushion pressure up '
+              f'{wind.air_held_pressure_rise_pa:.0f} Pa, its volume '
+              f'{wind.air_held_volume_change_m3 * 1e6:+.1f} mL')
     for index in path.limit_points:
         print(f'pressure maximum {path.pressure_pa[index] / 1e3:.2f} kPa at '
               f'{math.degrees(path.apex_fold_rad[index]):.1f} deg')
@@ -117,7 +123,7 @@ def compare(name, actuated, mesh):
 def meshes(factors):
     folds = np.radians([20.0, 40.0, 60.0])
     print('== mesh refinement, demonstrator: at apex folds 20 / 40 / 60 deg ==')
-    previous = None
+    previous, paths = None, []
     for factor in factors:
         mesh = PanelMesh(20, 2, 1, 2).refined(factor)
         path, cpu = cpu_of(lambda: structural_path(DEMONSTRATOR_ACTUATED, mesh))
@@ -136,6 +142,56 @@ def meshes(factors):
                 f'{(p - q) / q * 100:+.2f} %' for p, q in zip(pressure, previous))
         print(line, flush=True)
         previous = pressure
+        paths.append((factor, path))
+    if len(paths) >= 3:
+        at_fixed_air(paths[-3:])
+
+
+def observed_order(sizes, values):
+    """Order ``q`` and limit of ``f(h) = f0 + c h^q`` through three meshes' values.
+
+    ``sizes`` the element sizes (any ratios, decreasing), ``values`` the values on them;
+    None where the three are not monotone in ``h`` (no order to read).
+    """
+    h1, h2, h3 = sizes
+    f1, f2, f3 = values
+    ratio = (f1 - f2) / (f2 - f3)
+    if not np.isfinite(ratio) or ratio <= 0.0:
+        return None
+
+    def mismatch(q):
+        return (h1**q - h2**q) / (h2**q - h3**q) - ratio
+
+    if mismatch(0.05) * mismatch(10.0) > 0.0:
+        return None
+    order = brentq(mismatch, 0.05, 10.0)
+    return order, f3 + (f3 - f2) / ((h2 / h3)**order - 1.0)
+
+
+def at_fixed_air(paths):
+    """Tip travel and pressure at fixed air on the last three meshes, order and limit."""
+    finest = paths[-1][1]
+    airs = np.array([0.25, 0.5, 0.75, 0.95]) * finest.air_m3[-1]
+    sizes = [1.0 / factor for factor, _ in paths]
+    print("== at fixed air (fractions 0.25 / 0.5 / 0.75 / 0.95 of the finest mesh's air to "
+          'close: ' + ' / '.join(f'{a * 1e3:.2f}' for a in airs) + ' L); order and limit '
+          'from the last three meshes (Richardson) ==')
+    for label, key, scale, unit in (('tip travel', 'tip_travel_m', 1e3, 'mm'),
+                                    ('pressure', 'pressure_pa', 1e-3, 'kPa')):
+        values = np.array([np.interp(airs, path.air_m3, getattr(path, key))
+                           for _, path in paths])
+        for factor_index, (factor, _) in enumerate(paths):
+            print(f'{label} [{unit}], {paths[factor_index][1].node_count:5d} nodes: '
+                  + ' / '.join(f'{v * scale:.3f}' for v in values[factor_index]))
+        for column, air in enumerate(airs):
+            found = observed_order(sizes, values[:, column])
+            if found is None:
+                print(f'  at {air * 1e3:.2f} L: not monotone under refinement, no order read')
+                continue
+            order, limit = found
+            offs = ' / '.join(f'{(v / limit - 1.0) * 100:+.2f} %' for v in values[:, column])
+            print(f'  at {air * 1e3:.2f} L: order {order:.2f}, limit {limit * scale:.3f} '
+                  f'{unit}; the meshes off it by {offs}', flush=True)
 
 
 def trends(pressure_pa=1500.0):
@@ -258,6 +314,13 @@ def hexagon(finest, prefold_deg=None):
                 print(f'   {name} {path.pressure_pa[index]:.1f} Pa at '
                       f'{path.air_m3[index] * 1e3:.2f} L, apex fold '
                       f'{math.degrees(path.apex_fold_rad[index]):.2f} deg')
+        for index, name in path.symmetry_breaking:
+            after = path.negative_by_class[index]
+            before = path.negative_by_class[index - 1] if index else 0 * after
+            print(f'   stability lost in a mode {name} at {path.air_m3[index] * 1e3:.2f} L, '
+                  f'apex fold {math.degrees(path.apex_fold_rad[index]):.2f} deg; negative '
+                  f'eigenvalues per class {before.tolist()} -> {after.tolist()} '
+                  f'({", ".join(path.class_names)})')
         print(f'   largest apex fold {math.degrees(path.apex_fold_rad.max()):.1f} deg; '
               f'ended: {path.ended}; peak strains hinge '
               f'{path.peak_strain["hinge"].max() * 100:.2f} %, central part '
@@ -269,7 +332,8 @@ def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument('--meshes', action='store_true')
     parser.add_argument('--finest', action='store_true',
-                        help='with --meshes, also 160 columns and 8 hinge rows (an hour or more)')
+                        help='with --meshes, also 120 and 160 columns (6 and 8 hinge rows; '
+                        'minutes)')
     parser.add_argument('--presets', nargs='*')
     parser.add_argument('--hexagon', action='store_true')
     parser.add_argument('--prefold', type=float, metavar='DEG',
@@ -282,7 +346,7 @@ def main():
         for name in options.presets or chosen:
             compare(name, chosen[name], PanelMesh())
     if options.meshes:
-        meshes((1, 2, 4, 8) if options.finest else (1, 2, 4))
+        meshes((1, 2, 4, 6, 8) if options.finest else (1, 2, 4))
     if options.trends:
         trends()
     if options.cushion_map:

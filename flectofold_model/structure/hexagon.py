@@ -105,8 +105,17 @@ class HexagonSheet:
 
     @property
     def mirrors(self) -> tuple['Mirror', ...]:
-        """None used: the module's three mirrors are not the two of :mod:`.symmetry`."""
-        return ()
+        """The mirror ``x -> -x`` through ``T_0`` and the centre (:mod:`.symmetry`).
+
+        It takes sector 1 (``T_2`` to ``T_1``) to itself and sectors 0 and 2 to each other,
+        each with its columns reversed. The other two mirrors and the three-fold turn are
+        not used (:mod:`.symmetry` handles mirrors of ``x`` or ``y`` only).
+        """
+        from flectofold_model.structure.symmetry import Mirror
+        images = np.arange(self.sheet.node_count)
+        for sector, image in ((0, 2), (1, 1), (2, 0)):
+            images[self.grids[sector]] = self.grids[image][::-1]
+        return (Mirror(images, 0),)
 
     @property
     def hinge_width_m(self) -> float:

@@ -121,6 +121,9 @@ AIR_LIMIT_FACTOR = 2.0
 #: [Pa]: the 1.0 kN/m2 of the published wind-load case (Koerner et al.), as the energy
 #: statics' ``wind_response`` takes it.
 WIND_PRESSURE_PA = 1000.0
+#: Rigid volume of tubing that shares the cushion's air when its valves are shut [m3]: the
+#: pneumatic plant's default (``PlantParameters.dead_volume_m3``).
+DEAD_VOLUME_M3 = 2e-4
 
 
 def check_mesh_counts(mesh: MeshCounts) -> None:
@@ -401,10 +404,17 @@ def _middle(folds: FloatArray) -> FloatArray:
 class WindOnFlaps:
     """How far the closed panel's flaps give under a uniform pressure on their inner faces.
 
-    The linear response at the last equilibrium of the path, the cushion pressure held:
-    ``K du = f`` with ``K`` the tangent there and ``f`` the pressure's load on the flap
-    triangles (normal to them, on the faces that look at each other when closed, pushing
-    the flaps open), the counterpart of the energy statics' ``ActuationModel.wind_response``.
+    The linear response at the last equilibrium of the path, ``f`` the pressure's load on the
+    flap triangles (normal to them, on the faces that look at each other when closed, pushing
+    the flaps open), in two cases:
+
+    * **the cushion pressure held** (the pressure loop keeps it): ``K du = f`` with ``K`` the
+      tangent there, the counterpart of the energy statics' ``ActuationModel.wind_response``;
+    * **the air held** (the valves shut): ``K du = f + dp g_V`` and
+      ``g_V . du = -C dp``, ``g_V`` the gradient of the cushion's volume and
+      ``C = (V + V_dead) / p_abs`` the compliance of its air, isothermal as the plant's
+      (:mod:`~..actuation.plant`), with the tubing's dead volume: the flaps squeeze the
+      cushion, its pressure rises by ``dp`` and pushes back.
     """
 
     wind_pressure_pa: float
@@ -418,6 +428,14 @@ class WindOnFlaps:
     apex_fold_change_rad: float
     """Change of the apex fold it causes, to first order [rad]: negative where the flaps
     open."""
+    air_held_tip_deflection_m: float
+    """Travel of flap tip A with the cushion's air held [m]."""
+    air_held_stiffness_n_per_m: float
+    """``flap_force_n / air_held_tip_deflection_m`` [N/m]."""
+    air_held_pressure_rise_pa: float
+    """Rise of the cushion pressure with the air held [Pa]."""
+    air_held_volume_change_m3: float
+    """Change of the cushion's volume with the air held, ``-C dp`` [m3]."""
 
 
 @dataclass(frozen=True)
@@ -618,12 +636,15 @@ def trace_panel_path(panel_sheet: MeshedPanel, prefold_rad: float, target_fold_r
 
 
 def wind_on_flaps(panel_sheet: 'PanelSheet', sheet: Sheet, system: 'SheetSystem | MirroredSystem',
-                  point: PathPoint, wind_pressure_pa: float = WIND_PRESSURE_PA) -> WindOnFlaps:
+                  point: PathPoint, wind_pressure_pa: float = WIND_PRESSURE_PA,
+                  dead_volume_m3: float = DEAD_VOLUME_M3) -> WindOnFlaps:
     """Return the flaps' give at an equilibrium of the path under wind on their inner faces.
 
-    ``sheet`` is the moulded sheet the path was traced on and ``system`` its equations;
-    the cushion's pressure is held at the point's. See :class:`WindOnFlaps`.
+    ``sheet`` is the moulded sheet the path was traced on and ``system`` its equations; the
+    cushion's pressure is held at the point's, and then its air with ``dead_volume_m3`` [m3]
+    of tubing. See :class:`WindOnFlaps`.
     """
+    from flectofold_model.actuation.flow import ATMOSPHERIC_PRESSURE_PA
     from flectofold_model.structure.sheet import factorise
 
     flaps = np.asarray(sheet.zone) == FLAP
@@ -639,17 +660,31 @@ def wind_on_flaps(panel_sheet: 'PanelSheet', sheet: Sheet, system: 'SheetSystem 
     forces = np.zeros((sheet.node_count, 3))
     np.add.at(forces, triangles, np.repeat(-wind_pressure_pa / 3.0 * area_normal[:, None, :],
                                            3, axis=1))
-    change = factorise(system.hessians(values, point.pressure_pa)).solve(
-        system.nodal_load(forces))
+    if dead_volume_m3 < 0.0 or not np.isfinite(dead_volume_m3):
+        raise ValueError(f'dead_volume_m3 must be finite and >= 0, got {dead_volume_m3!r}')
+    factor = factorise(system.hessians(values, point.pressure_pa))
+    change = factor.solve(system.nodal_load(forces))
+    # The air held: du = change + dp per_pressure, g_V . du = -C dp.
+    _, volume_gradient = system.gradients(values)
+    per_pressure = factor.solve(volume_gradient)
+    air_compliance = ((point.volume_m3 + dead_volume_m3)
+                      / (ATMOSPHERIC_PRESSURE_PA + point.pressure_pa))
+    pressure_rise = -float(volume_gradient @ change) / float(
+        volume_gradient @ per_pressure + air_compliance)
+    held_change = change + pressure_rise * per_pressure
     tip = panel_sheet.tip_node
     # Positions are linear in the unknowns: the tip's travel is exact for the linear change;
     # the fold is not, so its first-order change is read over a thousandth of it.
-    deflection = float(np.linalg.norm(system.positions(values + change)[tip] - positions[tip]))
+    deflection, held_deflection = (
+        float(np.linalg.norm(system.positions(values + moved)[tip] - positions[tip]))
+        for moved in (change, held_change))
     fold = (lambda moved: float(panel_sheet.apex_fold_rad(panel_sheet.fold_angles_rad(moved))))
     fold_change = (fold(system.positions(values + 1e-3 * change)) - fold(positions)) / 1e-3
     flap_area = float(np.linalg.norm(area_normal, axis=1).sum()) / 2.0  # one flap, as it is
     force = wind_pressure_pa * flap_area
-    return WindOnFlaps(wind_pressure_pa, force, deflection, force / deflection, fold_change)
+    return WindOnFlaps(wind_pressure_pa, force, deflection, force / deflection, fold_change,
+                       held_deflection, force / held_deflection, pressure_rise,
+                       float(volume_gradient @ held_change))
 
 
 def equilibrium_system(panel_sheet: MeshedPanel,

@@ -188,13 +188,16 @@ def structural_fold_table(panel, steps, mesh=None, rrd_path=None):
         lines.append(f"closed, {wind.wind_pressure_pa / 1e3:g} kN/m2 on the flaps' inner faces "
                      f'(cushion pressure held): tip A gives {wind.tip_deflection_m * 1e3:.1f} '
                      f'mm to first order, a stiffness of {wind.stiffness_n_per_m:.0f} N/m per '
-                     f'flap')
+                     f'flap; valves shut (air held): {wind.air_held_tip_deflection_m * 1e3:.1f} '
+                     f'mm, {wind.air_held_stiffness_n_per_m:.0f} N/m, the cushion pressure up '
+                     f'{wind.air_held_pressure_rise_pa:.0f} Pa')
     for index in path.bifurcations:
         lines.append(f'bifurcation after {path.pressure_pa[index] / 1e3:.2f} kPa at '
                      f'{math.degrees(path.apex_fold_rad[index]):.1f} deg apex fold: stability '
                      f'lost with the air held too, the panel leaves this path')
+    words = HEXAGON_MODE_WORDS if hexagon else MODE_WORDS
     for index, name in path.symmetry_breaking:
-        lines.append(f'stability lost in a mode {name} ({MODE_WORDS.get(name, name)}) at '
+        lines.append(f'stability lost in a mode {name} ({words.get(name, name)}) at '
                      f'{path.air_m3[index] * 1e3:.3g} L of air, '
                      f'{path.pressure_pa[index] / 1e3:.2f} kPa, '
                      f'{math.degrees(path.apex_fold_rad[index]):.1f} deg apex fold: beyond it '
@@ -229,6 +232,12 @@ def structural_fold_table(panel, steps, mesh=None, rrd_path=None):
 MODE_WORDS = {'odd in y': 'one flap closing ahead of the other',
               'odd in x': 'one end of the span ahead of the other',
               'odd in x and y': 'the flaps twisting in opposite senses'}
+#: The hexagonal panel's one mirror class in words: of its symmetry group (three mirrors and
+#: the three-fold turn) a mode that breaks the turn comes as a pair, one even and one odd
+#: under the mirror through T_0, so both classes lose stability at the same equilibrium.
+HEXAGON_MODE_WORDS = {'odd in x': 'odd under the mirror through T_0; where the even class '
+                                  'loses stability at the same air, the two are one pair that '
+                                  'breaks the three-fold turn: the flaps folding unequally'}
 
 
 def _structural_heading(panel, mesh, path):

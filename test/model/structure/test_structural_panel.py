@@ -6,13 +6,13 @@ import math
 import numpy as np
 import pytest
 
-from flectofold_model.actuation import DEMONSTRATOR_ACTUATED
+from flectofold_model.actuation import DEMONSTRATOR_ACTUATED, PlantParameters
 from flectofold_model.kinematics.panel import PanelGeometry
 from flectofold_model.structure.comparison import kinematic_rows, structural_rows
 from flectofold_model.structure.panel import (apex_fold_angle_rad, build_panel_sheet,
-                                              equilibrium_system, FLAP, HINGE, MIDRIB,
-                                              mould_prefold, PanelMesh, structural_path,
-                                              StructuralPath, wind_on_flaps)
+                                              DEAD_VOLUME_M3, equilibrium_system, FLAP,
+                                              HINGE, MIDRIB, mould_prefold, PanelMesh,
+                                              structural_path, StructuralPath, wind_on_flaps)
 from flectofold_model.structure.sheet import SheetSystem, trace_path
 
 COARSE = PanelMesh(20, 2, 2, 2)
@@ -210,7 +210,8 @@ def test_the_first_unstable_odd_mode_is_where_the_symmetric_path_stops_being_the
                            [[0], [1], [1]]).symmetry_breaking == []
 
 
-def test_wind_on_the_closed_flaps_inner_faces_opens_them_in_proportion(path, panel_sheet):
+def test_wind_on_the_closed_flaps_inner_faces_opens_them_in_proportion(path, panel_sheet,
+                                                                       loaded_point):
     wind = path.closed_wind
     assert wind is not None and wind.wind_pressure_pa == 1000.0
     flaps = panel_sheet.sheet.zone == FLAP
@@ -220,14 +221,64 @@ def test_wind_on_the_closed_flaps_inner_faces_opens_them_in_proportion(path, pan
     assert wind.apex_fold_change_rad < 0.0  # the flaps open
     assert wind.stiffness_n_per_m == pytest.approx(wind.flap_force_n / wind.tip_deflection_m)
     # Linear: twice the pressure, twice the travel and the same stiffness.
-    sheet, start, _ = mould_prefold(panel_sheet, DEMONSTRATOR_ACTUATED.geometry.prefold_rad)
-    system = equilibrium_system(panel_sheet, sheet)
-    last = trace_path(sheet, 1e-3, lambda point: point.pressure_pa > 300.0,
-                      start=system.restrict_sheet(start), system=system)[-1]
+    sheet, system, last = loaded_point
     single, double = (wind_on_flaps(panel_sheet, sheet, system, last, pressure)
                       for pressure in (1000.0, 2000.0))
     assert double.tip_deflection_m == pytest.approx(2.0 * single.tip_deflection_m, rel=1e-9)
     assert double.stiffness_n_per_m == pytest.approx(single.stiffness_n_per_m, rel=1e-9)
+
+
+@pytest.fixture(scope='module')
+def loaded_point(panel_sheet):
+    """Return the moulded sheet, its equations and an equilibrium just above 300 Pa."""
+    sheet, start, _ = mould_prefold(panel_sheet, DEMONSTRATOR_ACTUATED.geometry.prefold_rad)
+    system = equilibrium_system(panel_sheet, sheet)
+    last = trace_path(sheet, 1e-3, lambda point: point.pressure_pa > 300.0,
+                      start=system.restrict_sheet(start), system=system)[-1]
+    return sheet, system, last
+
+
+def test_with_the_valves_shut_the_squeezed_air_pushes_back_and_the_flaps_give_less(
+        path, panel_sheet, loaded_point):
+    wind = path.closed_wind
+    assert wind is not None
+    assert wind.air_held_pressure_rise_pa > 0.0  # the flaps squeeze the cushion
+    assert wind.air_held_volume_change_m3 < 0.0
+    assert 0.0 < wind.air_held_tip_deflection_m < wind.tip_deflection_m
+    assert wind.air_held_stiffness_n_per_m == pytest.approx(
+        wind.flap_force_n / wind.air_held_tip_deflection_m)
+    sheet, system, last = loaded_point
+    # The air's isothermal compliance (V + V_dead) / p_abs: more tubing, a softer cushion,
+    # and the difference of -dV/dp between two dead volumes is theirs over p_abs.
+    small, large = (wind_on_flaps(panel_sheet, sheet, system, last, dead_volume_m3=volume)
+                    for volume in (0.0, 1e-3))
+    assert large.air_held_tip_deflection_m > small.air_held_tip_deflection_m
+    assert large.air_held_pressure_rise_pa < small.air_held_pressure_rise_pa
+    compliance = [-w.air_held_volume_change_m3 / w.air_held_pressure_rise_pa
+                  for w in (small, large)]
+    assert compliance[1] - compliance[0] == pytest.approx(1e-3 / (101325.0 + last.pressure_pa),
+                                                          rel=1e-9)
+    # A reservoir of endless air holds the pressure: the pressure-held response.
+    endless = wind_on_flaps(panel_sheet, sheet, system, last, dead_volume_m3=1e6)
+    assert endless.air_held_tip_deflection_m == pytest.approx(endless.tip_deflection_m,
+                                                              rel=1e-6)
+    # Linear: twice the wind, twice the rise and the give.
+    double = wind_on_flaps(panel_sheet, sheet, system, last, 2000.0, dead_volume_m3=0.0)
+    assert double.air_held_pressure_rise_pa == pytest.approx(
+        2.0 * small.air_held_pressure_rise_pa, rel=1e-9)
+    assert double.air_held_tip_deflection_m == pytest.approx(
+        2.0 * small.air_held_tip_deflection_m, rel=1e-9)
+
+
+@pytest.mark.parametrize('volume', [-1e-9, math.inf, math.nan])
+def test_a_dead_volume_below_zero_or_not_finite_is_refused(panel_sheet, loaded_point, volume):
+    sheet, system, last = loaded_point
+    with pytest.raises(ValueError, match='dead_volume_m3'):
+        wind_on_flaps(panel_sheet, sheet, system, last, dead_volume_m3=volume)
+
+
+def test_the_dead_volume_is_the_plants():
+    assert DEAD_VOLUME_M3 == PlantParameters().dead_volume_m3
 
 
 def test_a_path_that_did_not_close_has_no_wind_figure():

@@ -1,13 +1,16 @@
-"""The quad panel on its symmetry cell: the same path as the whole sheet, the whole stability."""
+"""Panels on their symmetry cells: the same path as the whole sheet, the whole stability."""
 
 from dataclasses import replace
+import math
 
 import numpy as np
 import pytest
 
+from flectofold_model.actuation import HEXAGON_ACTUATED
 from flectofold_model.actuation.statics import DEMONSTRATOR_ACTUATED
 from flectofold_model.structure import elements
 from flectofold_model.structure import panel as panel_module
+from flectofold_model.structure.hexagon import hexagon_structural_path, HexagonMesh
 from flectofold_model.structure.panel import (build_panel_sheet, mould_prefold, PanelMesh,
                                               structural_path)
 from flectofold_model.structure.sheet import SheetSystem, tangent_inertia
@@ -132,6 +135,30 @@ def test_the_quad_path_on_its_cell_is_the_whole_sheets_path(monkeypatch):
         whole.closed_wind.tip_deflection_m, rel=1e-6)
     assert ours.closed_wind.apex_fold_change_rad == pytest.approx(
         whole.closed_wind.apex_fold_change_rad, rel=1e-5)
+
+
+def test_the_hexagon_path_on_its_half_is_the_whole_sheets_and_finds_the_pair_that_breaks_its_turn(
+        monkeypatch):
+    # Moulded to 20 deg the module folds (msg_docs/structure.md), and near 55 deg loses
+    # stability in a pair of modes, one even and one odd under the mirror through T_0: the
+    # pair of its symmetry group that breaks the three-fold turn.
+    panel = replace(HEXAGON_ACTUATED, geometry=replace(HEXAGON_ACTUATED.geometry,
+                                                       prefold_rad=math.radians(20.0)))
+    mesh = HexagonMesh(12, 4, 2, 2)
+    ours = hexagon_structural_path(panel, mesh, steps=12)
+    assert ours.class_names == ('even', 'odd in x')
+    _whole_sheet_only(monkeypatch)
+    whole = hexagon_structural_path(panel, mesh, steps=12)
+    assert ours.ended == whole.ended
+    assert len(ours.pressure_pa) == len(whole.pressure_pa) >= 12
+    assert ours.pressure_pa == pytest.approx(whole.pressure_pa, rel=1e-7, abs=1e-6)
+    assert np.max(np.abs(ours.positions_m - whole.positions_m)) < 1e-9
+    assert np.array_equal(ours.negative_by_class.sum(axis=1), whole.negative_by_class[:, 0])
+    folds = np.degrees(ours.apex_fold_rad)
+    pair = [i for i in range(1, len(folds))
+            if list(ours.negative_by_class[i - 1]) == [0, 0]
+            and list(ours.negative_by_class[i]) == [1, 1]]
+    assert len(pair) == 1 and 50.0 < folds[pair[0]] < 60.0
 
 
 def test_a_sheet_that_is_not_its_mirror_image_is_refused(panel_sheet):
