@@ -647,6 +647,10 @@ def wind_on_flaps(panel_sheet: 'PanelSheet', sheet: Sheet, system: 'SheetSystem 
     from flectofold_model.actuation.flow import ATMOSPHERIC_PRESSURE_PA
     from flectofold_model.structure.sheet import factorise
 
+    if not np.isfinite(wind_pressure_pa) or wind_pressure_pa <= 0.0:
+        raise ValueError(f'wind_pressure_pa must be finite and > 0, got {wind_pressure_pa!r}')
+    if not np.isfinite(dead_volume_m3) or dead_volume_m3 < 0.0:
+        raise ValueError(f'dead_volume_m3 must be finite and >= 0, got {dead_volume_m3!r}')
     flaps = np.asarray(sheet.zone) == FLAP
     unknowns = cast(FloatArray, point.unknowns)  # trace_path gives every point its own
     values = system.restrict_sheet(unknowns)
@@ -660,8 +664,6 @@ def wind_on_flaps(panel_sheet: 'PanelSheet', sheet: Sheet, system: 'SheetSystem 
     forces = np.zeros((sheet.node_count, 3))
     np.add.at(forces, triangles, np.repeat(-wind_pressure_pa / 3.0 * area_normal[:, None, :],
                                            3, axis=1))
-    if dead_volume_m3 < 0.0 or not np.isfinite(dead_volume_m3):
-        raise ValueError(f'dead_volume_m3 must be finite and >= 0, got {dead_volume_m3!r}')
     factor = factorise(system.hessians(values, point.pressure_pa))
     change = factor.solve(system.nodal_load(forces))
     # The air held: du = change + dp per_pressure, g_V . du = -C dp.

@@ -277,6 +277,20 @@ def test_a_dead_volume_below_zero_or_not_finite_is_refused(panel_sheet, loaded_p
         wind_on_flaps(panel_sheet, sheet, system, last, dead_volume_m3=volume)
 
 
+@pytest.mark.parametrize('wind', [0.0, -1.0, math.inf, math.nan])
+def test_a_wind_pressure_not_above_zero_or_not_finite_is_refused(panel_sheet, loaded_point,
+                                                                 wind):
+    sheet, system, last = loaded_point
+    with pytest.raises(ValueError, match='wind_pressure_pa'):
+        wind_on_flaps(panel_sheet, sheet, system, last, wind)
+
+
+def test_the_least_wind_above_zero_is_taken(panel_sheet, loaded_point):
+    sheet, system, last = loaded_point
+    faint = wind_on_flaps(panel_sheet, sheet, system, last, 1e-6)
+    assert faint.tip_deflection_m > 0.0 and faint.air_held_pressure_rise_pa > 0.0
+
+
 def test_the_dead_volume_is_the_plants():
     assert DEAD_VOLUME_M3 == PlantParameters().dead_volume_m3
 
