@@ -9,8 +9,9 @@ Everything printed is computed here; CPU is process time of this process.
   maximum, and its CPU time against the reflection model's table of the same closures.
 * ``--meshes``: the demonstrator on the meshes 20 / 40 / 80 columns, every count scaled alike
   (with ``--finest`` also 120 and 160); pressure and tip travel at fixed apex folds and the
-  change per refinement; then at fixed air on the last three meshes, the observed order of
-  convergence and Richardson's estimate of the limit, and each mesh's distance from it.
+  change per refinement; then at fixed air and at fixed apex fold on the last three meshes,
+  the observed order of convergence and Richardson's estimate of the limit, and each mesh's
+  distance from it.
 * ``--trends``: the demonstrator's apex fold at a set pressure as hinge width, hinge modulus
   and flap modulus change one at a time (the trends Muehlich et al., Biomimetics 6(3):43,
   2021, state for elastomer-GFRP hinges: the fold rises as material stiffness falls and as
@@ -144,7 +145,8 @@ def meshes(factors):
         previous = pressure
         paths.append((factor, path))
     if len(paths) >= 3:
-        at_fixed_air(paths[-3:])
+        at_fixed(paths[-3:], 'air')
+        at_fixed(paths[-3:], 'apex fold')
 
 
 def observed_order(sizes, values):
@@ -168,30 +170,41 @@ def observed_order(sizes, values):
     return order, f3 + (f3 - f2) / ((h2 / h3)**order - 1.0)
 
 
-def at_fixed_air(paths):
-    """Tip travel and pressure at fixed air on the last three meshes, order and limit."""
+def at_fixed(paths, along):
+    """Quantities on the last three meshes at fixed air or apex fold, their order and limit."""
     finest = paths[-1][1]
-    airs = np.array([0.25, 0.5, 0.75, 0.95]) * finest.air_m3[-1]
     sizes = [1.0 / factor for factor, _ in paths]
-    print("== at fixed air (fractions 0.25 / 0.5 / 0.75 / 0.95 of the finest mesh's air to "
-          'close: ' + ' / '.join(f'{a * 1e3:.2f}' for a in airs) + ' L); order and limit '
-          'from the last three meshes (Richardson) ==')
-    for label, key, scale, unit in (('tip travel', 'tip_travel_m', 1e3, 'mm'),
-                                    ('pressure', 'pressure_pa', 1e-3, 'kPa')):
-        values = np.array([np.interp(airs, path.air_m3, getattr(path, key))
+    if along == 'air':
+        places = np.array([0.25, 0.5, 0.75, 0.95]) * finest.air_m3[-1]
+        print("== at fixed air (fractions 0.25 / 0.5 / 0.75 / 0.95 of the finest mesh's air to "
+              'close: ' + ' / '.join(f'{a * 1e3:.2f}' for a in places) + ' L); order and '
+              'limit from the last three meshes (Richardson) ==')
+        quantities = (('tip travel', 'tip_travel_m', 1e3, 'mm'),
+                      ('pressure', 'pressure_pa', 1e-3, 'kPa'))
+        where, unit_of_place = 'air_m3', (1e3, 'L')
+    else:
+        places = np.radians([20.0, 40.0, 60.0, 80.0])
+        print('== at fixed apex fold (20 / 40 / 60 / 80 deg); order and limit from the last '
+              'three meshes (Richardson) ==')
+        quantities = (('tip travel', 'tip_travel_m', 1e3, 'mm'),
+                      ('pressure', 'pressure_pa', 1e-3, 'kPa'), ('air', 'air_m3', 1e3, 'L'))
+        where, unit_of_place = 'apex_fold_rad', (180.0 / math.pi, 'deg')
+    for label, key, scale, unit in quantities:
+        values = np.array([np.interp(places, getattr(path, where), getattr(path, key))
                            for _, path in paths])
-        for factor_index, (factor, _) in enumerate(paths):
-            print(f'{label} [{unit}], {paths[factor_index][1].node_count:5d} nodes: '
-                  + ' / '.join(f'{v * scale:.3f}' for v in values[factor_index]))
-        for column, air in enumerate(airs):
+        for index, (_, path) in enumerate(paths):
+            print(f'{label} [{unit}], {path.node_count:5d} nodes: '
+                  + ' / '.join(f'{v * scale:.3f}' for v in values[index]))
+        for column, place in enumerate(places):
+            at = f'  at {place * unit_of_place[0]:.2f} {unit_of_place[1]}'
             found = observed_order(sizes, values[:, column])
             if found is None:
-                print(f'  at {air * 1e3:.2f} L: not monotone under refinement, no order read')
+                print(f'{at}: not monotone under refinement, no order read')
                 continue
             order, limit = found
             offs = ' / '.join(f'{(v / limit - 1.0) * 100:+.2f} %' for v in values[:, column])
-            print(f'  at {air * 1e3:.2f} L: order {order:.2f}, limit {limit * scale:.3f} '
-                  f'{unit}; the meshes off it by {offs}', flush=True)
+            print(f'{at}: order {order:.2f}, limit {limit * scale:.3f} {unit}; the meshes off '
+                  f'it by {offs}', flush=True)
 
 
 def trends(pressure_pa=1500.0):
