@@ -693,8 +693,9 @@ def equilibrium_system(panel_sheet: MeshedPanel,
                        sheet: Sheet) -> 'SheetSystem | MirroredSystem':
     """Return the equations to solve a panel's sheet with: its symmetry cell's if it has one.
 
-    The quad panel's path is symmetric under both mirrors and is traced on a quarter of its
-    unknowns; its stability is read from all four symmetry classes (:mod:`.symmetry`).
+    A panel with mirrors is traced on its even unknowns, its stability read from every
+    symmetry class (:mod:`.symmetry`): the quad on a quarter (two mirrors, four classes), the
+    hexagon on a half (one mirror, two classes).
     """
     if not panel_sheet.mirrors:
         return SheetSystem(sheet)

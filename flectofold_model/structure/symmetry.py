@@ -1,14 +1,15 @@
-"""Mirror symmetry of a sheet: the equilibrium path on a quarter, the stability on the whole.
+"""Mirror symmetry of a sheet: the equilibrium path on one cell, the stability on the whole.
 
 A sheet whose mesh, laminates, cushion and supports are symmetric under one or two mirrors
-(the quad panel: ``x -> -x`` and ``y -> -y``) keeps a symmetric shape under its symmetric
-cushion load as long as the symmetric path is followed, and at every symmetric state its
-tangent splits into independent blocks, one per symmetry class: the deformations even or odd
-under each mirror (four classes for two mirrors) [1]_. Hence
+(the quad panel: ``x -> -x`` and ``y -> -y``; the hexagon: ``x -> -x``) keeps a symmetric
+shape under its symmetric cushion load as long as the symmetric path is followed, and at
+every symmetric state its tangent splits into independent blocks, one per symmetry class:
+the deformations even or odd under each mirror (four classes for two mirrors) [1]_. Hence
 
-* the **path** needs only the even class: the unknowns of one symmetry cell (a quarter of
-  the sheet), and each class's energy, gradient and tangent are those of one cell's faces,
-  times the group's order (every face has its images, none is its own);
+* the **path** needs only the even class: the unknowns of one symmetry cell (a half of the
+  sheet for one mirror, a quarter for two), and each class's energy, gradient and tangent
+  are those of one cell's faces, times the group's order (every face has its images, none
+  is its own);
 * the **stability** of each equilibrium is still that of the whole sheet: its tangent's
   inertia is the sum of the classes' (Sylvester's law of inertia on the block-diagonal form),
   so a mode that breaks the symmetry (one flap up, the other down) is found as before. What
