@@ -276,7 +276,7 @@ ROSDEP_KEYS = {
     'pymodbus': 'python3-pymodbus',
     'rerun': 'python3-rerun-sdk-pip', 'rerun_cli': 'python3-rerun-sdk-pip',
     'launch_ros': 'launch_ros', 'cryptography': 'python3-cryptography',
-    'bacpypes3': 'python3-bacpypes3-pip',
+    'bacpypes3': 'python3-bacpypes3-pip', 'cvxopt': 'python3-cvxopt',
 }
 #: ROS packages whose Python module has the package's name.
 ROS_PACKAGES = {'rclpy', 'builtin_interfaces', 'rcl_interfaces', 'std_msgs', 'std_srvs',

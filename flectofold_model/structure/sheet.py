@@ -5,10 +5,11 @@ degrees of freedom and the triangles a cushion presses on; :func:`trace_path` fo
 equilibrium under rising cushion volume (volume control: each step fixes the volume of air
 under the loaded triangles and solves for the shape and the pressure together), so that a
 pressure that stops rising, a limit point, is passed and reported rather than hidden. Newton's
-method on the augmented system ``[H - p H_V, -g_V; -g_V^T, 0]``, sparse LU (the tangent is
-not positive definite beyond a limit point). The equations come from a :class:`SheetSystem`
-(every unknown) or a :class:`~.symmetry.MirroredSystem` (a symmetric sheet's symmetry cell);
-both have the :class:`EquilibriumSystem` interface the solvers use.
+method on the augmented system ``[H - p H_V, -g_V; -g_V^T, 0]``, with sparse Cholesky where
+the tangent is positive definite and sparse LU beyond a limit point (:mod:`.factor`). The
+equations come from a :class:`SheetSystem` (every unknown) or a
+:class:`~.symmetry.MirroredSystem` (a symmetric sheet's symmetry cell); both have the
+:class:`EquilibriumSystem` interface the solvers use.
 """
 
 from dataclasses import dataclass
@@ -21,6 +22,7 @@ from scipy.sparse.linalg import splu, SuperLU
 
 from flectofold_model._validate import FloatArray, IntArray
 from flectofold_model.structure import elements
+from flectofold_model.structure.factor import CholeskyFactor, lu_pivots, symmetric_factor
 from flectofold_model.structure.shell import MidEdgeBending
 
 
@@ -350,16 +352,17 @@ def csc_layout(rows: IntArray, cols: IntArray,
     return slot, unique % size, indptr
 
 
-def factorise(matrix: csc_matrix) -> SuperLU:
-    """Sparse LU of a symmetric tangent: symmetric mode first, partial pivoting if it fails.
+def factorise(matrix: csc_matrix) -> 'SuperLU | CholeskyFactor':
+    """Factorise a symmetric tangent: Cholesky where it is positive definite, else sparse LU.
 
-    The symmetric mode (minimum degree on ``A + A^T``, diagonal pivots) keeps the fill-in of
-    the sheet's tangent about a third of column ordering's and factorises four times faster;
-    when a diagonal pivot vanishes (a tangent that is singular there) SuperLU's default
-    partial pivoting is tried before giving up.
+    :func:`~.factor.symmetric_factor` (CHOLMOD's Cholesky, or SuperLU's symmetric mode: a
+    third of column ordering's fill-in on the sheet's tangent); when a diagonal pivot vanishes
+    (a tangent that is singular there) SuperLU's default partial pivoting before giving up.
     """
     try:
-        factor = _symmetric_lu(matrix)
+        factor, _ = symmetric_factor(matrix)
+        if isinstance(factor, CholeskyFactor):
+            return factor
         probe = np.ones(matrix.shape[0])
         if np.all(np.isfinite(factor.solve(probe))):
             return factor
@@ -368,7 +371,8 @@ def factorise(matrix: csc_matrix) -> SuperLU:
     return splu(matrix)
 
 
-def positive_definite_factor(matrix: csc_matrix, max_shifts: int = 20) -> SuperLU:
+def positive_definite_factor(matrix: csc_matrix,
+                             max_shifts: int = 20) -> 'SuperLU | CholeskyFactor':
     """Factorise ``matrix + mu I`` with the least ``mu >= 0`` tried that is positive definite.
 
     ``mu`` is 0 where the tangent is positive definite (Newton's method); otherwise it starts
@@ -382,31 +386,16 @@ def positive_definite_factor(matrix: csc_matrix, max_shifts: int = 20) -> SuperL
         shifted = matrix if shift == 0.0 else (matrix + shift * identity(
             matrix.shape[0], format='csc')).tocsc()
         try:
-            factor = _symmetric_lu(shifted)
-            pivots = _pivots(factor)
+            factor, negatives = symmetric_factor(shifted)
         except RuntimeError:
-            pivots = None
-        if pivots is not None and np.all(pivots > 0.0):
+            factor, negatives = None, None
+        if isinstance(factor, CholeskyFactor):
+            return factor
+        pivots = None if factor is None else lu_pivots(factor)
+        if negatives == 0 and pivots is not None and np.all(pivots > 0.0):
             return factor
         shift = 1e-8 * scale if shift == 0.0 else 10.0 * shift
     return factorise(matrix)
-
-
-def _symmetric_lu(matrix: csc_matrix) -> SuperLU:
-    """Factorise in SuperLU's symmetric mode: minimum degree on ``A + A^T``, diagonal pivots."""
-    return splu(matrix, permc_spec='MMD_AT_PLUS_A', diag_pivot_thresh=0.0,
-                options={'SymmetricMode': True})
-
-
-def _pivots(factor: SuperLU) -> Optional[FloatArray]:
-    """Return the pivots ``D`` of a symmetric-mode factor ``P H P^T = L D L^T``.
-
-    Their signs are the tangent's inertia; None where SuperLU pivoted off the diagonal after
-    all.
-    """
-    if not np.array_equal(factor.perm_r, factor.perm_c):
-        return None
-    return factor.U.diagonal()
 
 
 class _Group:
@@ -515,8 +504,9 @@ def tangent_inertia(system: 'EquilibriumSystem', values: FloatArray,
                     pressure: float) -> Optional[tuple[int, float]]:
     """Negative eigenvalues of the tangent ``H - p H_V`` and ``g_V^T (H - p H_V)^-1 g_V``.
 
-    From a symmetric-mode factorisation ``P H P^T = L D L^T`` (``D`` the diagonal of ``U``),
-    whose signs are those of the eigenvalues (Sylvester's law of inertia); of each block
+    From :func:`~.factor.symmetric_factor`: a Cholesky factor where the tangent is positive
+    definite, else the signs of the pivots of ``P H P^T = L D L^T`` (Sylvester's law of
+    inertia); of each block
     where the system gives the tangent in blocks (:meth:`~.symmetry.MirroredSystem.
     tangent_blocks`: the negative eigenvalues summed, the volume gradient in the first). None
     when a factorisation needed pivoting or failed.
@@ -534,13 +524,12 @@ def block_inertia(system: 'EquilibriumSystem', values: FloatArray,
             negatives.append(0)
             continue
         try:
-            factor = _symmetric_lu(matrix)
+            factor, count = symmetric_factor(matrix)
         except RuntimeError:
             return None
-        pivots = _pivots(factor)
-        if pivots is None:
+        if count is None:
             return None
-        negatives.append(int(np.count_nonzero(pivots < 0.0)))
+        negatives.append(count)
         if index == 0:
             _, volume_gradient = system.gradients(values)
             curvature = float(volume_gradient @ factor.solve(volume_gradient))
@@ -680,10 +669,10 @@ def _newton(system: 'EquilibriumSystem', values: FloatArray, pressure: float, ta
         # Block elimination of the bordered system: du = a + dp b, g_V . du = -volume_error.
         free_step = factor.solve(-residual)
         load_step = factor.solve(volume_gradient)
-        denominator = volume_gradient @ load_step
+        denominator = float(volume_gradient @ load_step)
         if not np.isfinite(denominator) or denominator == 0.0:
             return None
-        pressure_step = (-volume_error - volume_gradient @ free_step) / denominator
+        pressure_step = float(-volume_error - volume_gradient @ free_step) / denominator
         step_values = free_step + pressure_step * load_step
         if not np.all(np.isfinite(step_values)):
             return None
