@@ -5,7 +5,7 @@ pressure loops and the scheduler's air per move take the pressure, air and compl
 panel from the structural model (:mod:`.cushion_tables`) instead of the energy statics. The
 structure is traced for one panel, the facade's median panel by footprint area
 (:func:`~flectofold_model.facade.footprint.representative_panel`, as the shading table), and
-its map drives every panel of the facade: one path costs half a minute of CPU, and the panels
+its map drives every panel of the facade: one path costs about 10 s of CPU, and the panels
 of one facade differ by millimetres in size and tenths of a degree in pre-fold (what that
 leaves out, measured with the energy statics: ``msg_docs/structure.md``). Only cached maps
 are read where a process must start in seconds; the ``facade`` bringup and
@@ -45,8 +45,8 @@ def facade_cushion_map(facade: 'Facade', model: StaticActuationModel, trace: boo
         The energy statics of the panels the map is for (N panels of ``facade``).
     trace : bool
         Structural only: trace the median panel's path when the cache does not have it
-        (half a minute of CPU). False raises :class:`~.cushion_tables.NotCached` naming the command
-        that computes it.
+        (about 10 s of CPU). False raises :class:`~.cushion_tables.NotCached` naming the
+        command that computes it.
     progress : callable, optional
         Structural only: passed to the path tracer.
     """
@@ -70,7 +70,7 @@ def median_structural_map(facade: 'Facade', count: int = 1, trace: bool = True,
         raise NotCached(f'facade {facade.name} takes its cushion map from the structure '
                         f'(actuation.cushion_map: structural), traced for its median panel '
                         f'{facade.panel_ids[median]}: {error}; compute it once with '
-                        f'`{WARM_UP}` (half a minute of CPU; `facade` does it before it starts '
+                        f'`{WARM_UP}` (about 10 s of CPU; `facade` does it before it starts '
                         f'its panels)') from None
 
 

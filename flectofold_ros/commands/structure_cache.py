@@ -2,7 +2,7 @@
 
 ``structure_cache [--facade FILE]``: for a facade whose description says
 ``actuation: {cushion_map: structural}``, trace the structural path of its median panel
-(half a minute of CPU) into the cache (``$FLECTOFOLD_STRUCTURE_CACHE``, default
+(about 10 s of CPU) into the cache (``$FLECTOFOLD_STRUCTURE_CACHE``, default
 ``~/.cache/flectofold/structure``), or find it there, and print what the map says. Panel
 processes and the coordinator only read that cache: without the entry they refuse to start,
 naming this command. ``facade`` runs it before it starts its panels. Exit code 2 for a facade
@@ -42,7 +42,7 @@ def prepare_structural_map(facade, name):
         how = 'cached'
     except NotCached:
         print(f'{name}: tracing the structural path of the median panel {median} of {facade.name} '
-              f'(half a minute of CPU, once; cached in {cache_directory()})', flush=True)
+              f'(about 10 s of CPU, once; cached in {cache_directory()})', flush=True)
         started = time.process_time()
         last = [time.monotonic()]
 

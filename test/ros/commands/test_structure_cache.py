@@ -1,7 +1,7 @@
 """``structure_cache``, and processes of a facade that takes its cushion map from the structure.
 
-Panel processes only read the cache (they must start in seconds; a path is half a minute of CPU):
-without the entry they refuse, naming the command; with it they start. ``structure_cache``
+Panel processes only read the cache (they must start in seconds; a path is about 10 s of
+CPU): without the entry they refuse, naming the command; with it they start. ``structure_cache``
 fills it, or finds it there.
 """
 
@@ -124,7 +124,7 @@ def test_an_uncached_map_is_traced_once_with_progress_and_then_found(
     first = prepare_structural_map(facade, 'x')
     lines = capsys.readouterr().out.splitlines()
     assert lines[0] == (f'x: tracing the structural path of the median panel r01c00 of small '
-                        f'(half a minute of CPU, once; cached in {tmp_path / "cache"})')
+                        f'(about 10 s of CPU, once; cached in {tmp_path / "cache"})')
     assert lines[-1].startswith('x: structural cushion map of small (median panel r01c00), '
                                 'traced in ') and ' s of CPU: closed at ' in lines[-1]
     again = prepare_structural_map(facade, 'x')
