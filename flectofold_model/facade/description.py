@@ -54,7 +54,7 @@ _QUAD_PANEL = {key: SCHEMA['panel'][key] for key in PANEL_KEYS['quad']}
 _CONTROL_KEYS = {'period_s', 'shading_target', 'look_ahead_s', 'controller'}
 #: Where the plant, the loops and the scheduler take a panel's pressure, air and closure from:
 #: the energy statics of each panel, or the structural model of the facade's median panel.
-CUSHION_MAPS = ('energy', 'structural')
+CUSHION_MAPS = ('energy', 'structural', 'structural_per_panel')
 #: A facade's name ends up in recording ids and file names: a short plain word.
 _NAME = re.compile(r'[A-Za-z0-9][A-Za-z0-9_.-]{0,63}')
 
@@ -87,9 +87,10 @@ class Facade:
     """``'quad'`` (:class:`~flectofold_model.kinematics.panel.PanelGeometry` panels) or
     ``'hexagon'`` (:class:`~flectofold_model.kinematics.hexagon_panel.HexagonPanel` panels)."""
     cushion_map: str = 'energy'
-    """``actuation.cushion_map``: ``'energy'`` (each panel's energy statics) or
-    ``'structural'`` (the structural model of the median panel, quad facades only; see
-    :func:`~flectofold_model.structure.facade_map.facade_cushion_map`)."""
+    """``actuation.cushion_map``: ``'energy'`` (each panel's energy statics),
+    ``'structural'`` (the structural model of the median panel for every panel) or
+    ``'structural_per_panel'`` (each panel's own structural model); the structural ones for
+    quad facades only (see :func:`~flectofold_model.structure.facade_map.facade_cushion_map`)."""
 
     def __len__(self) -> int:
         return len(self.panels)
@@ -353,8 +354,8 @@ def _cushion_map(actuation: Mapping[Any, Any], kind: str) -> str:
     if choice not in CUSHION_MAPS:
         raise FacadeError(f'actuation.cushion_map: must be one of {", ".join(CUSHION_MAPS)}, '
                           f'got {short_repr(choice)}')
-    if choice == 'structural' and kind != 'quad':
-        raise FacadeError('actuation.cushion_map: structural needs quad panels; the '
+    if choice != 'energy' and kind != 'quad':
+        raise FacadeError(f'actuation.cushion_map: {choice} needs quad panels; the '
                           'hexagonal module does not close in the structural model '
                           '(msg_docs/structure.md)')
     return choice

@@ -54,11 +54,12 @@ def full_close_air_nl(facade: 'Facade') -> FloatArray:
 
     ``(p_closed V_closed - p_atm V_open) / p_atm`` with absolute pressures and the tubing's dead
     volume, from the static actuation model of each panel's own geometry, or from the
-    structural map of the facade's median panel when its description chooses that
+    structural map of the facade's median panel (or of each panel) when its description
+    chooses that
     (:func:`~flectofold_model.structure.facade_map.structural_close_air_nl`).
     """
     dead = DEMONSTRATOR_PLANT.dead_volume_m3
-    if facade.cushion_map == 'structural':
+    if facade.cushion_map != 'energy':
         return structural_close_air_nl(facade, dead)
     model = actuation_model_of(actuated_like(panel) for panel in facade.panels)
     closed = (ATMOSPHERIC_PRESSURE_PA + model.closed_pressure_pa) * (

@@ -6,10 +6,11 @@ panel from the structural model (:mod:`.cushion_tables`) instead of the energy s
 structure is traced for one panel, the facade's median panel by footprint area
 (:func:`~flectofold_model.facade.footprint.representative_panel`, as the shading table), and
 its map drives every panel of the facade: one path costs about 10 s of CPU, and the panels
-of one facade differ by millimetres in size and tenths of a degree in pre-fold (what that
-leaves out, measured with the energy statics: ``msg_docs/structure.md``). Only cached maps
-are read where a process must start in seconds; the ``facade`` bringup and
-``structure_cache`` compute them.
+of one facade differ by millimetres in size and tenths of a degree in pre-fold.
+``structural_per_panel`` traces every panel's own design instead (one path per distinct
+design, each cached): what the median's map leaves out is measured in
+``msg_docs/structure.md``. Only cached maps are read where a process must start in seconds;
+the ``facade`` bringup and ``structure_cache`` compute them.
 The energy choice (the default) keeps each panel's own statics.
 """
 
@@ -40,19 +41,44 @@ def facade_cushion_map(facade: 'Facade', model: StaticActuationModel, trace: boo
     Parameters
     ----------
     facade : Facade
-        Its ``cushion_map``: ``'energy'`` or ``'structural'``.
+        Its ``cushion_map``: ``'energy'``, ``'structural'`` or ``'structural_per_panel'``.
     model : StaticActuationModel
-        The energy statics of the panels the map is for (N panels of ``facade``).
+        The energy statics of the panels the map is for (N panels of ``facade``, actuated
+        as :func:`~flectofold_model.actuation.kinds.actuated_like` makes them).
     trace : bool
-        Structural only: trace the median panel's path when the cache does not have it
-        (about 10 s of CPU). False raises :class:`~.cushion_tables.NotCached` naming the
-        command that computes it.
+        Structural only: trace the median panel's path (or each panel's) when the cache does
+        not have it (about 10 s of CPU each). False raises
+        :class:`~.cushion_tables.NotCached` naming the command that computes it.
     progress : callable, optional
         Structural only: passed to the path tracer.
     """
     if facade.cushion_map == 'energy':
         return CushionMap(model)
+    if facade.cushion_map == 'structural_per_panel':
+        return panels_structural_map(facade, cast(list[ActuatedPanel], model.panels), trace,
+                                     progress)
     return median_structural_map(facade, len(model), trace, progress)
+
+
+def panels_structural_map(facade: 'Facade', panels: list[ActuatedPanel], trace: bool = True,
+                          progress: Optional[Progress] = None) -> CushionMap:
+    """Return the structural map of ``panels`` (N quad panels of ``facade``), each its own.
+
+    One path per distinct design; ``trace`` and ``progress`` as for
+    :func:`facade_cushion_map`.
+    """
+    try:
+        return structural_cushion_map(panels, trace=trace, progress=progress)
+    except NotCached as error:
+        raise NotCached(f'facade {facade.name} takes the cushion map of each panel from the '
+                        f'structure (actuation.cushion_map: structural_per_panel): {error}; '
+                        f'compute them once with `{WARM_UP}` (about 10 s of CPU per panel '
+                        f'design; `facade` does it before it starts its panels)') from None
+
+
+def facade_structural_panels(facade: 'Facade') -> list[ActuatedPanel]:
+    """Every panel of a quad ``facade`` actuated as its processes actuate it."""
+    return [cast(ActuatedPanel, actuated_like(panel)) for panel in facade.panels]
 
 
 def median_structural_map(facade: 'Facade', count: int = 1, trace: bool = True,
@@ -78,11 +104,17 @@ def structural_close_air_nl(facade: 'Facade', dead_volume_m3: float) -> FloatArr
     """Free air [NL] (N,) that closes each panel from open, by the facade's structural map.
 
     ``(p_closed V_closed - p_atm V_open) / p_atm`` with absolute pressures and the tubing's
-    dead volume ``dead_volume_m3`` [m3], at the map's closures 1 and 0. Reads the cached map
-    only (:class:`~.cushion_tables.NotCached` names the command that computes it).
+    dead volume ``dead_volume_m3`` [m3], at the map's closures 1 and 0: the median panel's
+    for every panel, or each panel's own (``structural_per_panel``). Reads the cached maps
+    only (:class:`~.cushion_tables.NotCached` names the command that computes them).
     """
-    cushion_map = median_structural_map(facade, trace=False)
-    pressure, volume = (table[0] for table in cushion_map.tables()[:2])
-    closed = (ATMOSPHERIC_PRESSURE_PA + pressure[-1]) * (volume[-1] + dead_volume_m3)
-    opened = ATMOSPHERIC_PRESSURE_PA * (volume[0] + dead_volume_m3)
-    return np.full(len(facade), (closed - opened) / ATMOSPHERIC_PRESSURE_PA * 1e3)
+    if facade.cushion_map == 'structural_per_panel':
+        cushion_map = panels_structural_map(facade, facade_structural_panels(facade),
+                                            trace=False)
+    else:
+        cushion_map = median_structural_map(facade, len(facade), trace=False)
+    tables, row = cushion_map.tables()[:2], cushion_map.tables()[-1]
+    pressure, volume = (np.asarray(table)[np.asarray(row)] for table in tables)
+    closed = (ATMOSPHERIC_PRESSURE_PA + pressure[:, -1]) * (volume[:, -1] + dead_volume_m3)
+    opened = ATMOSPHERIC_PRESSURE_PA * (volume[:, 0] + dead_volume_m3)
+    return (closed - opened) / ATMOSPHERIC_PRESSURE_PA * 1e3

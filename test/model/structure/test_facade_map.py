@@ -7,7 +7,7 @@ import pytest
 
 from flectofold_model.actuation import (actuated_like, actuation_model_of,
                                         ATMOSPHERIC_PRESSURE_PA, DEMONSTRATOR_PLANT)
-from flectofold_model.actuation.cushion_map import CushionMap
+from flectofold_model.actuation.cushion_map import CushionMap, distinct_panels
 from flectofold_model.control import facade_loops
 from flectofold_model.facade import build_facade, facade_path, FacadeError, load_facade
 from flectofold_model.facade.description import DEFAULT_FACADE
@@ -76,11 +76,12 @@ def test_an_unknown_actuation_key_is_refused():
         build_facade(TEXT + '\nactuation:\n  mesh: fine\n')
 
 
-def test_a_hexagon_facade_cannot_take_the_structural_map():
+@pytest.mark.parametrize('choice', ['structural', 'structural_per_panel'])
+def test_a_hexagon_facade_cannot_take_the_structural_map(choice):
     text = facade_path('hexagon_6x6').read_text()
-    with pytest.raises(FacadeError, match='structural needs quad panels; the hexagonal module '
-                                          'does not close'):
-        build_facade(text + '\nactuation:\n  cushion_map: structural\n')
+    with pytest.raises(FacadeError, match=f'{choice} needs quad panels; the hexagonal module '
+                                          f'does not close'):
+        build_facade(text + f'\nactuation:\n  cushion_map: {choice}\n')
 
 
 def test_the_energy_choice_is_each_panels_own_statics():
@@ -139,3 +140,53 @@ def test_the_loops_and_their_plant_run_on_the_structural_map(facade, traces):
     assert loops.map.distinct_count == 1
     assert loops.map.pressure_for_closure(np.ones(2)) == pytest.approx(pressure[-1])
     assert len(traces) == 1
+
+
+@pytest.fixture(scope='module')
+def each_facade():
+    return with_actuation('structural_per_panel')
+
+
+def test_per_panel_every_design_is_traced_once_and_drives_its_own_panels(each_facade, traces):
+    panels = [actuated_like(panel) for panel in each_facade.panels]
+    model = actuation_model_of(panels)
+    traced = facade_cushion_map(each_facade, model)
+    distinct, row = distinct_panels(panels)
+    assert len(distinct) == len(each_facade) == 36  # the saddle: every panel its own design
+    assert traced.distinct_count == len(distinct) and traces == distinct
+    pressure, volume, compliance, rows = traced.tables()
+    for index, panel in enumerate(panels):
+        own = cushion_tables.structural_tables(panel, trace=False)  # its own cache entry
+        for mine, other in zip((pressure, volume, compliance), own[:3]):
+            assert np.array_equal(mine[rows[index]], other)
+    assert np.ptp(pressure[:, -1]) > 0.0  # the panels' closed pressures differ
+    # A process of two panels reads their maps back and traces nothing.
+    two = facade_cushion_map(each_facade, actuation_model_of(panels[3:5]), trace=False)
+    assert len(traces) == len(distinct) and two.distinct_count == 2
+    assert np.array_equal(two.tables()[0], pressure[rows[3:5]])
+
+
+def test_per_panel_the_scheduler_prices_each_panels_full_close_with_its_own_map(
+        each_facade, traces):
+    panels = [actuated_like(panel) for panel in each_facade.panels]
+    pressure, volume, _, rows = facade_cushion_map(each_facade,
+                                                   actuation_model_of(panels)).tables()
+    pressure, volume = pressure[rows], volume[rows]
+    atmosphere, dead = ATMOSPHERIC_PRESSURE_PA, DEMONSTRATOR_PLANT.dead_volume_m3
+    expected_nl = ((atmosphere + pressure[:, -1]) * (volume[:, -1] + dead) -
+                   atmosphere * (volume[:, 0] + dead)) / atmosphere * 1e3
+    air_nl = full_close_air_nl(each_facade)
+    assert air_nl.shape == (len(each_facade),)
+    assert air_nl == pytest.approx(expected_nl, rel=1e-12)
+    assert np.ptp(air_nl) > 0.0
+
+
+def test_per_panel_without_the_cached_maps_a_process_is_told_the_command(each_facade, traces):
+    model = actuation_model_of(actuated_like(panel) for panel in each_facade.panels[:2])
+    with pytest.raises(NotCached, match='structural_per_panel.*no structural cushion map of '
+                                        'this panel design is cached .*structure_cache '
+                                        '--facade FILE'):
+        facade_cushion_map(each_facade, model, trace=False)
+    with pytest.raises(NotCached, match='structure_cache'):
+        full_close_air_nl(each_facade)
+    assert traces == []

@@ -132,6 +132,48 @@ def test_an_uncached_map_is_traced_once_with_progress_and_then_found(
     assert (first.tables()[0] == again.tables()[0]).all()
 
 
+def test_per_panel_every_design_is_traced_once_with_a_line_each_and_then_found(
+        small_facade_text, seeded_cache, tmp_path, monkeypatch, capsys):
+    from dataclasses import replace
+    from flectofold_model.actuation import actuated_like
+    from flectofold_model.actuation.cushion_map import distinct_panels
+    from flectofold_model.structure import cushion_tables
+    from flectofold_ros.commands.structure_cache import prepare_structural_map
+    facade = build_facade(small_facade_text('period_s: 60.0') +
+                          'actuation: {cushion_map: structural_per_panel}\n')
+    designs = len(distinct_panels([actuated_like(panel) for panel in facade.panels])[0])
+    monkeypatch.setenv(CACHE_ENVIRONMENT, str(tmp_path / 'cache'))
+    calls = []
+
+    def traced(actuated, mesh, progress=None):
+        calls.append(actuated)
+        return seeded_cache[2]
+
+    monkeypatch.setattr(cushion_tables, 'structural_path', traced)
+    first = prepare_structural_map(facade, 'x')
+    lines = capsys.readouterr().out.splitlines()
+    assert len(calls) == designs and len(lines) == designs + 2, lines
+    assert lines[0] == (f'x: tracing the structural paths of {designs} of the {designs} panel '
+                        f'designs of small (about 10 s of CPU each, once; cached in '
+                        f'{tmp_path / "cache"})')
+    assert all(line.startswith(f'x: {count}/{designs} panel r') and ': closed at ' in line
+               for count, line in enumerate(lines[1:-1], 1)), lines
+    assert lines[-1].startswith(f'x: structural cushion maps of the 4 panels of small '
+                                f'({designs} designs), traced {designs} in '), lines
+    again = prepare_structural_map(facade, 'x')
+    assert len(calls) == designs
+    assert capsys.readouterr().out.startswith(f'x: structural cushion maps of the 4 panels of '
+                                              f'small ({designs} designs), cached: closed at ')
+    assert (first.tables()[0] == again.tables()[0]).all()
+    # A design that does not close is named by its first panel.
+    monkeypatch.setenv(CACHE_ENVIRONMENT, str(tmp_path / 'other'))
+    monkeypatch.setattr(cushion_tables, 'structural_path',
+                        lambda *_, **__: replace(seeded_cache[2], ended='not closed'))
+    with pytest.raises(ValueError, match=r'panel r\d\dc\d\d of small: the panel does not '
+                                         r'close in the structure \(not closed\)'):
+        prepare_structural_map(facade, 'x')
+
+
 def test_a_bringup_day_runs_on_the_cached_structural_map(structural_facade_file, seeded_cache):
     cache, cushion_map, _ = seeded_cache
     graph = Graph(domain_for(58))
