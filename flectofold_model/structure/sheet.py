@@ -506,10 +506,9 @@ def tangent_inertia(system: 'EquilibriumSystem', values: FloatArray,
 
     From :func:`~.factor.symmetric_factor`: a Cholesky factor where the tangent is positive
     definite, else the signs of the pivots of ``P H P^T = L D L^T`` (Sylvester's law of
-    inertia); of each block
-    where the system gives the tangent in blocks (:meth:`~.symmetry.MirroredSystem.
-    tangent_blocks`: the negative eigenvalues summed, the volume gradient in the first). None
-    when a factorisation needed pivoting or failed.
+    inertia); of each block where the system gives the tangent in blocks
+    (:meth:`~.symmetry.MirroredSystem.tangent_blocks`: the negative eigenvalues summed, the
+    volume gradient in the first). None when a factorisation needed pivoting or failed.
     """
     found = block_inertia(system, values, pressure)
     return None if found is None else (sum(found[0]), found[1])
