@@ -204,3 +204,123 @@ def bending_hessian(local: FloatArray, interior: BoolArray, side: FloatArray,
                     b = 3 * slots[column // 3] + column % 3
                     h[21 * a + b] += weight * 0.5 * (second[row, column] + second[column, row])
     return out
+
+
+@inline_kernel
+def _membrane_state(x: FloatArray, inverse: FloatArray, modulus: float, poisson: float,
+                    deformation: FloatArray, stress: FloatArray) -> None:
+    """Write a triangle's ``F`` ``(3, 2)`` and second Piola-Kirchhoff stress ``S`` ``(2, 2)``.
+
+    ``x`` holds its corners' 9 coordinates; ``F = [x1 - x0, x2 - x0] inverse``,
+    ``E = (F^T F - I) / 2``, ``S = C ((1 - nu) E + nu tr(E) I)`` with ``C = modulus``.
+    """
+    for i in range(3):
+        e1 = x[3 + i] - x[i]
+        e2 = x[6 + i] - x[i]
+        for a in range(2):
+            deformation[i, a] = e1 * inverse[0, a] + e2 * inverse[1, a]
+    for a in range(2):
+        for b in range(2):
+            product = 0.0
+            for i in range(3):
+                product += deformation[i, a] * deformation[i, b]
+            stress[a, b] = 0.5 * (product - (1.0 if a == b else 0.0))
+    trace = stress[0, 0] + stress[1, 1]
+    for a in range(2):
+        for b in range(2):
+            stress[a, b] = modulus * ((1.0 - poisson) * stress[a, b]
+                                      + (poisson * trace if a == b else 0.0))
+
+
+@kernel
+def membrane_gradient(local: FloatArray, inverse: FloatArray, area: FloatArray,
+                      modulus: FloatArray, poisson: FloatArray) -> FloatArray:
+    """Gradient of the constant-strain triangles' energy ``(m, 9)`` [N], corner by corner.
+
+    Edge forces ``A F S inverse^T`` ``(3, 2)`` on corners 1 and 2, their negative sum on
+    corner 0 (the rule of :func:`.elements.membrane_gradient`).
+    """
+    count = local.shape[0]
+    out = np.empty((count, 9))
+    deformation = np.empty((3, 2))
+    stress = np.empty((2, 2))
+    for m in range(count):
+        _membrane_state(local[m], inverse[m], modulus[m], poisson[m], deformation, stress)
+        for i in range(3):
+            total = 0.0
+            for edge in range(2):
+                force = 0.0
+                for a in range(2):
+                    for b in range(2):
+                        force += deformation[i, a] * stress[a, b] * inverse[m, edge, b]
+                force *= area[m]
+                out[m, 3 * (edge + 1) + i] = force
+                total += force
+            out[m, i] = -total
+    return out
+
+
+@kernel
+def membrane_hessian(local: FloatArray, inverse: FloatArray, area: FloatArray,
+                     modulus: FloatArray, poisson: FloatArray) -> FloatArray:
+    """Hessian of the constant-strain triangles' energy ``(m, 81)``, row by row.
+
+    ``A [(B S B^T)_kl delta_ij + C ((1 - nu) dE(k, i) : dE(l, j) + nu tr dE(k, i)
+    tr dE(l, j))]`` with ``B`` the corners' reference shape gradients and ``dE(k, i) =
+    sym(B_k F_i)`` (the rule of :func:`.elements.membrane_hessian`).
+    """
+    count = local.shape[0]
+    out = np.empty((count, 81))
+    deformation = np.empty((3, 2))
+    stress = np.empty((2, 2))
+    shape = np.empty((3, 2))
+    variation = np.empty((9, 4))
+    traces = np.empty(9)
+    for m in range(count):
+        _membrane_state(local[m], inverse[m], modulus[m], poisson[m], deformation, stress)
+        for a in range(2):
+            shape[0, a] = -inverse[m, 0, a] - inverse[m, 1, a]
+            shape[1, a] = inverse[m, 0, a]
+            shape[2, a] = inverse[m, 1, a]
+        for k in range(3):
+            for i in range(3):
+                p = 3 * k + i
+                for a in range(2):
+                    for b in range(2):
+                        variation[p, 2 * a + b] = 0.5 * (shape[k, a] * deformation[i, b]
+                                                         + deformation[i, a] * shape[k, b])
+                traces[p] = variation[p, 0] + variation[p, 3]
+        c = modulus[m]
+        nu = poisson[m]
+        for k in range(3):
+            for other in range(3):
+                geometric = 0.0
+                for a in range(2):
+                    for b in range(2):
+                        geometric += shape[k, a] * stress[a, b] * shape[other, b]
+                for i in range(3):
+                    p = 3 * k + i
+                    for j in range(3):
+                        q = 3 * other + j
+                        inner = 0.0
+                        for ab in range(4):
+                            inner += variation[p, ab] * variation[q, ab]
+                        value = c * ((1.0 - nu) * inner + nu * traces[p] * traces[q])
+                        if i == j:
+                            value += geometric
+                        out[m, 9 * p + q] = area[m] * value
+    return out
+
+
+@kernel
+def scatter_add(slot: IntArray, weight: FloatArray, entries: FloatArray, keep: IntArray,
+                size: int) -> FloatArray:
+    """Return ``data`` ``(size,)`` with ``data[slot[e]] += weight[e] entries[keep[e]]``.
+
+    In order of ``e``: the sums of ``np.bincount(slot, weights=weight * entries[keep])``,
+    without its two temporaries.
+    """
+    data = np.zeros(size)
+    for e in range(slot.shape[0]):
+        data[slot[e]] += weight[e] * entries[keep[e]]
+    return data

@@ -21,7 +21,7 @@ from scipy.sparse import csc_matrix, identity
 from scipy.sparse.linalg import splu, SuperLU
 
 from flectofold_model._validate import FloatArray, IntArray
-from flectofold_model.structure import elements
+from flectofold_model.structure import elements, kernels
 from flectofold_model.structure.factor import CholeskyFactor, lu_pivots, symmetric_factor
 from flectofold_model.structure.shell import MidEdgeBending
 
@@ -161,10 +161,13 @@ class SheetSystem:
                   else np.asarray(faces, dtype=np.int64))
         triangles = np.asarray(sheet.triangles)[chosen]
         inverse, area = membrane_data(sheet)
-        self.inverse, self.area = inverse[chosen], area[chosen]
-        self.membrane_modulus = (sheet.youngs_modulus_pa * sheet.thickness_m
-                                 / (1.0 - sheet.poisson_ratio**2))[chosen]
-        self.poisson = np.asarray(sheet.poisson_ratio, dtype=np.float64)[chosen]
+        self.inverse = np.ascontiguousarray(inverse[chosen])
+        self.area = np.ascontiguousarray(area[chosen])
+        self.membrane_modulus = np.ascontiguousarray(
+            (sheet.youngs_modulus_pa * sheet.thickness_m
+             / (1.0 - sheet.poisson_ratio**2))[chosen], dtype=np.float64)
+        self.poisson = np.ascontiguousarray(
+            np.asarray(sheet.poisson_ratio, dtype=np.float64)[chosen])
         self.bending = MidEdgeBending(sheet.reference_xy_m, sheet.triangles,
                                       sheet.plate_stiffness_nm, sheet.poisson_ratio,
                                       sheet.rest_tilt_sine)
@@ -277,14 +280,16 @@ class SheetSystem:
                                            self.sheet.base_z_m).sum())
 
     def _membrane_gradient(self, local: FloatArray) -> FloatArray:
-        corners = local.reshape(-1, 3, 3)
-        return elements.membrane_gradient(corners, self.inverse, self.area,
-                                          self.membrane_modulus,
-                                          self.poisson).reshape(local.shape)
+        """:func:`.elements.membrane_gradient`, compiled (:func:`.kernels.membrane_gradient`)."""
+        return kernels.membrane_gradient(np.ascontiguousarray(local.reshape(-1, 9)),
+                                         self.inverse, self.area, self.membrane_modulus,
+                                         self.poisson).reshape(local.shape)
 
     def _membrane_hessian(self, local: FloatArray) -> FloatArray:
-        return elements.membrane_hessian(local.reshape(-1, 3, 3), self.inverse, self.area,
-                                         self.membrane_modulus, self.poisson)
+        """:func:`.elements.membrane_hessian`, compiled (:func:`.kernels.membrane_hessian`)."""
+        return kernels.membrane_hessian(np.ascontiguousarray(local.reshape(-1, 9)),
+                                        self.inverse, self.area, self.membrane_modulus,
+                                        self.poisson).reshape(-1, 9, 9)
 
     def _prism_gradient(self, local: FloatArray) -> FloatArray:
         corners = local.reshape(-1, 3, 3)

@@ -41,6 +41,7 @@ import numpy.typing as npt
 from scipy.sparse import coo_matrix, csc_matrix, diags
 
 from flectofold_model._validate import FloatArray, IntArray
+from flectofold_model.structure import kernels
 from flectofold_model.structure.sheet import csc_layout, Sheet, SheetSystem
 from flectofold_model.structure.shell import MidEdgeBending
 
@@ -267,7 +268,7 @@ class MirroredSystem:
         for index in range(classes or len(self.blocks)):
             keep, weight, (slot, indices, indptr) = self._block_layout(index)
             size = len(indptr) - 1
-            data = np.bincount(slot, weights=weight * entries[keep], minlength=len(indices))
+            data = kernels.scatter_add(slot, weight, entries, keep, len(indices))
             blocks.append(csc_matrix((data, indices, indptr), shape=(size, size)))
         return blocks
 

@@ -232,6 +232,36 @@ def test_the_membrane_hessian_matches_central_differences_of_the_gradient():
         np.abs(analytic)))
 
 
+def test_the_compiled_membrane_kernels_are_the_numpy_rules():
+    rng = np.random.default_rng(7)
+    flat = rng.normal(0, 1, (60, 3, 2))
+    clockwise = np.linalg.det(np.stack([flat[:, 1] - flat[:, 0], flat[:, 2] - flat[:, 0]],
+                                       -1)) < 0
+    flat[clockwise] = flat[clockwise][:, [0, 2, 1]]
+    inverse, area = elements.membrane_reference(flat)
+    corners = (np.concatenate([flat, np.zeros((60, 3, 1))], -1)
+               + rng.normal(0, 0.3, (60, 3, 3)))
+    modulus, poisson = rng.uniform(1e5, 1e6, 60), rng.uniform(0.0, 0.45, 60)
+    local = np.ascontiguousarray(corners.reshape(60, 9))
+    inverse = np.ascontiguousarray(inverse)
+    gradient = elements.membrane_gradient(corners, inverse, area, modulus, poisson)
+    compiled = kernels.membrane_gradient(local, inverse, area, modulus, poisson)
+    assert np.max(np.abs(compiled - gradient.reshape(60, 9))) < 1e-13 * np.max(np.abs(gradient))
+    hessian = elements.membrane_hessian(corners, inverse, area, modulus, poisson)
+    compiled = kernels.membrane_hessian(local, inverse, area, modulus, poisson)
+    assert np.max(np.abs(compiled - hessian.reshape(60, 81))) < 1e-13 * np.max(np.abs(hessian))
+
+
+def test_the_compiled_scatter_sums_as_bincount_does():
+    rng = np.random.default_rng(8)
+    entries = rng.normal(size=500)
+    keep = rng.choice(500, 300, replace=False)
+    slot = rng.integers(0, 40, 300)
+    weight = rng.choice([-2.0, 2.0, 4.0], 300)
+    expected = np.bincount(slot, weights=weight * entries[keep], minlength=45)
+    assert np.array_equal(kernels.scatter_add(slot, weight, entries, keep, 45), expected)
+
+
 def test_the_bending_hessian_matches_central_differences_of_the_gradient():
     points, faces = strip_mesh(0.3, 0.2, 0.05, jitter=0.2)
     rng = np.random.default_rng(3)
