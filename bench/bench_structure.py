@@ -98,6 +98,9 @@ def compare(name, actuated, mesh):
               f'{wind.air_held_stiffness_n_per_m:.0f} N/m, cushion pressure up '
               f'{wind.air_held_pressure_rise_pa:.0f} Pa, its volume '
               f'{wind.air_held_volume_change_m3 * 1e6:+.1f} mL')
+    if path.flap_gap_m is not None:
+        print(f'flaps at their closest {path.flap_gap_m[-1] * 1e3:.1f} mm apart at the end '
+              f'({path.flap_gap_m[0] * 1e3:.1f} mm open)')
     for index in path.limit_points:
         print(f'pressure maximum {path.pressure_pa[index] / 1e3:.2f} kPa at '
               f'{math.degrees(path.apex_fold_rad[index]):.1f} deg')

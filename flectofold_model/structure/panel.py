@@ -36,6 +36,7 @@ total rotation the hinge zone carries, which is what the kinematic model's fold 
 """
 
 from dataclasses import dataclass, fields, replace
+import math
 from typing import Any, Callable, cast, ClassVar, Optional, Protocol, TYPE_CHECKING
 
 import numpy as np
@@ -215,6 +216,20 @@ class PanelSheet:
         """Travel of the sliding support C toward B since the open state [m]."""
         slider = self.grid[-1, self.grid.shape[1] // 2]
         return float(open_positions_m[slider, 0] - positions_m[slider, 0])
+
+    def flap_gap_m(self, positions_m: FloatArray) -> float:
+        """Closest approach of the two flaps [m]: twice the least ``y`` of the +y flap.
+
+        For a shape that is its own image in ``y -> -y`` (the path on the symmetry cell) this
+        is exact for the triangles: the distance of a point ``p`` of one flap from a point
+        ``q'`` of the other (the image of ``q``) is at least ``y_p + y_q``, reached at
+        ``q = p``, and a triangle's least ``y`` is at a corner. Not above 0: the flaps touch
+        or pass through each other.
+        """
+        flap = np.asarray(self.sheet.zone) == FLAP
+        nodes = np.unique(np.asarray(self.sheet.triangles)[flap])
+        upper = nodes[np.asarray(self.sheet.reference_xy_m)[nodes, 1] > 0.0]
+        return 2.0 * float(np.min(positions_m[upper, 1]))
 
 
 def build_panel_sheet(panel: 'ActuatedPanel', mesh: PanelMesh = PanelMesh()) -> PanelSheet:
@@ -497,6 +512,10 @@ class StructuralPath:
     ``'whole'`` for a panel solved without its symmetry)."""
     closed_wind: Optional['WindOnFlaps'] = None
     """The closed panel's give under wind on its flaps (quad panels whose path closed)."""
+    flap_gap_m: Optional[np.ndarray] = None
+    """Closest approach of the two flaps at every equilibrium [m]
+    (:meth:`PanelSheet.flap_gap_m`; quad panels). Contact between them is not modelled: a
+    path ends at the first equilibrium where it is not above 0."""
 
     @property
     def limit_points(self) -> IntArray:
@@ -614,6 +633,11 @@ def trace_panel_path(panel_sheet: MeshedPanel, prefold_rad: float, target_fold_r
             fold = apex_fold_angle_rad(panel_sheet, point.positions_m)
             if progress is not None:
                 progress(point.pressure_pa, fold)
+            if (isinstance(panel_sheet, PanelSheet)
+                    and panel_sheet.flap_gap_m(point.positions_m) <= 0.0):
+                ended[0] = (f'the flaps touch at {math.degrees(fold):.1f} deg apex fold '
+                            f'(contact between them is not modelled)')
+                return True
             if fold >= target_fold_rad:
                 return True
             if point.volume_m3 - opened >= air_limit:
@@ -744,4 +768,6 @@ def _path_from_points(panel_sheet: MeshedPanel, sheet: Sheet, points: list[PathP
         positions_m=np.array([p.positions_m for p in points]),
         surface_strain=np.array(strains), triangles=np.asarray(sheet.triangles),
         open_volume_m3=float(points[0].volume_m3),
-        zone=np.asarray(sheet.zone))
+        zone=np.asarray(sheet.zone),
+        flap_gap_m=(np.array([panel_sheet.flap_gap_m(p.positions_m) for p in points])
+                    if isinstance(panel_sheet, PanelSheet) else None))

@@ -191,6 +191,10 @@ def structural_fold_table(panel, steps, mesh=None, rrd_path=None):
                      f'flap; valves shut (air held): {wind.air_held_tip_deflection_m * 1e3:.1f} '
                      f'mm, {wind.air_held_stiffness_n_per_m:.0f} N/m, the cushion pressure up '
                      f'{wind.air_held_pressure_rise_pa:.0f} Pa')
+    if path.flap_gap_m is not None:
+        lines.append(f'flaps at their closest {path.flap_gap_m[-1] * 1e3:.1f} mm apart at the '
+                     f'end ({path.flap_gap_m[0] * 1e3:.1f} mm open; contact between them is '
+                     f'not modelled, a path ends where they would touch)')
     for index in path.bifurcations:
         lines.append(f'bifurcation after {path.pressure_pa[index] / 1e3:.2f} kPa at '
                      f'{math.degrees(path.apex_fold_rad[index]):.1f} deg apex fold: stability '

@@ -300,3 +300,35 @@ def test_a_path_that_did_not_close_has_no_wind_figure():
                             steps=48, air_estimate_m3=1e-4)
     assert ended.ended.startswith('not closed with')
     assert ended.closed_wind is None
+
+
+def test_the_flaps_closest_approach_is_the_least_distance_between_their_nodes(
+        path, panel_sheet):
+    zone, triangles = np.asarray(panel_sheet.sheet.zone), np.asarray(panel_sheet.sheet.triangles)
+    nodes = np.unique(triangles[zone == FLAP])
+    upper = nodes[panel_sheet.sheet.reference_xy_m[nodes, 1] > 0]
+    lower = nodes[panel_sheet.sheet.reference_xy_m[nodes, 1] < 0]
+    assert path.flap_gap_m is not None and len(path.flap_gap_m) == len(path.pressure_pa)
+    for positions, gap in zip(path.positions_m, path.flap_gap_m):
+        # Every pair of nodes, one on each flap (the symmetric shape makes it exact).
+        apart = np.linalg.norm(positions[upper][:, None] - positions[lower][None], axis=-1)
+        assert gap == pytest.approx(apart.min(), rel=1e-12)
+    assert np.all(path.flap_gap_m > 0.0) and path.flap_gap_m[-1] < path.flap_gap_m[0]
+
+
+def test_a_path_ends_where_the_flaps_would_touch(monkeypatch):
+    from flectofold_model.structure import panel as panel_module
+
+    def gap_closing_at_20_deg(self, positions_m):  # as if the flaps met at a 20 deg fold
+        fold = float(self.apex_fold_rad(self.fold_angles_rad(positions_m)))
+        return 0.1 * (math.radians(20.0) - fold)
+
+    monkeypatch.setattr(panel_module.PanelSheet, 'flap_gap_m', gap_closing_at_20_deg)
+    touched = structural_path(DEMONSTRATOR_ACTUATED, COARSE, target_fold_rad=TARGET_FOLD_RAD,
+                              steps=48)
+    folds = np.degrees(touched.apex_fold_rad)
+    assert touched.ended == (f'the flaps touch at {folds[-1]:.1f} deg apex fold (contact '
+                             f'between them is not modelled)')
+    assert folds[-1] >= 20.0 > folds[-2]
+    assert touched.flap_gap_m[-1] <= 0.0 < touched.flap_gap_m[-2]
+    assert touched.closed_wind is None
