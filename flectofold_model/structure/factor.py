@@ -9,8 +9,8 @@ the solutions are the same to round-off either way. What each costs on the panel
 ``msg_docs/structure.md``.
 
 The symbolic analysis (fill-reducing ordering, supernodes) depends on the sparsity pattern
-alone; it is made once per pattern and kept (:data:`PATTERNS_KEPT` patterns), since every
-tangent of a path has its system's one pattern.
+alone; it is made once per pattern and kept (:data:`PATTERNS_KEPT` patterns per thread: a
+thread's factors are its own), since every tangent of a path has its system's one pattern.
 
 cvxopt is GPL-3.0-or-later; it is imported on first use only.
 
@@ -23,7 +23,8 @@ References
 """
 
 from collections import OrderedDict
-from typing import Any, Optional
+import threading
+from typing import Any, cast, Optional
 
 import numpy as np
 from scipy.sparse import csc_matrix
@@ -36,7 +37,14 @@ PATTERNS_KEPT = 16
 
 _cholmod: Any = None
 _cvxopt: Any = None
-_patterns: 'OrderedDict[tuple[int, int, int], list[_Pattern]]' = OrderedDict()
+_local = threading.local()
+
+
+def _kept() -> 'OrderedDict[tuple[int, int, int], list[_Pattern]]':
+    """Return this thread's kept patterns, least recently used first."""
+    if not hasattr(_local, 'patterns'):
+        _local.patterns = OrderedDict()
+    return cast('OrderedDict[tuple[int, int, int], list[_Pattern]]', _local.patterns)
 
 
 def available() -> bool:
@@ -179,15 +187,16 @@ def _numeric(pattern: _Pattern, matrix: csc_matrix) -> Optional[CholeskyFactor]:
 
 
 def _pattern(indices: IntArray, indptr: IntArray) -> _Pattern:
+    patterns = _kept()
     key = (len(indptr) - 1, len(indices), int(indices[-1]) if len(indices) else -1)
-    kept = _patterns.get(key, [])
+    kept = patterns.get(key, [])
     for pattern in kept:
         if pattern.matches(indices, indptr):
-            _patterns.move_to_end(key)
+            patterns.move_to_end(key)
             return pattern
     pattern = _Pattern(indices, indptr)
-    _patterns[key] = kept + [pattern]
-    _patterns.move_to_end(key)
-    while sum(len(found) for found in _patterns.values()) > PATTERNS_KEPT:
-        _patterns.popitem(last=False)
+    patterns[key] = kept + [pattern]
+    patterns.move_to_end(key)
+    while sum(len(found) for found in patterns.values()) > PATTERNS_KEPT:
+        patterns.popitem(last=False)
     return pattern

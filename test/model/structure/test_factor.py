@@ -1,5 +1,8 @@
 """CHOLMOD's Cholesky of the tangents: the same answers as SuperLU, refusals where it must."""
 
+import threading
+import time
+
 import numpy as np
 import pytest
 from scipy.sparse import csc_matrix, random as sparse_random
@@ -71,13 +74,37 @@ def test_a_factor_refuses_to_solve_once_its_pattern_holds_another_matrix():
 
 
 def test_the_kept_symbolic_analyses_are_bounded():
-    factor._patterns.clear()
+    factor._kept().clear()
     for size in range(20, 20 + factor.PATTERNS_KEPT):
         assert factor.cholesky(_symmetric(size, 10.0)) is not None
-    assert sum(len(kept) for kept in factor._patterns.values()) == factor.PATTERNS_KEPT
+    assert sum(len(kept) for kept in factor._kept().values()) == factor.PATTERNS_KEPT
     assert factor.cholesky(_symmetric(19, 10.0)) is not None  # one beyond: the oldest goes
-    assert sum(len(kept) for kept in factor._patterns.values()) == factor.PATTERNS_KEPT
-    assert all(key[0] != 20 for key in factor._patterns)  # the first, size 20, went
+    assert sum(len(kept) for kept in factor._kept().values()) == factor.PATTERNS_KEPT
+    assert all(key[0] != 20 for key in factor._kept())  # the first, size 20, went
+
+
+def test_threads_factorising_matrices_of_one_pattern_keep_their_own_factors():
+    matrix = _symmetric(120, 10.0)
+    rhs = np.ones(120)
+    expected = spsolve(matrix, rhs)
+    failures = []
+
+    def work(scale):
+        try:
+            for _ in range(200):
+                found = factor.cholesky(matrix * scale)
+                time.sleep(0)  # let the other thread factorise in between
+                if not np.allclose(found.solve(rhs), expected / scale, rtol=1e-10):
+                    failures.append(f'wrong solution at scale {scale}')
+        except RuntimeError as error:
+            failures.append(str(error))
+
+    threads = [threading.Thread(target=work, args=(scale,)) for scale in (1.0, 3.0)]
+    for thread in threads:
+        thread.start()
+    for thread in threads:
+        thread.join()
+    assert failures == []
 
 
 def test_without_cholmod_the_factorisation_and_inertia_are_superlus(monkeypatch):
