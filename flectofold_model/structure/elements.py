@@ -17,9 +17,10 @@ nodes, and returns energies ``(m,)``, gradients ``(m, k, 3)`` or Hessians ``(m, 
   equals ``integral p dV`` exactly.
 
 The membrane Hessian is analytic (:func:`membrane_hessian`, geometric plus material
-stiffness); the others are central differences of the analytic gradients, element by element
-(the energies are smooth; the step is :data:`HESSIAN_STEP_M`), which keeps Newton's method
-quadratic to the residuals the path solver asks for.
+stiffness), as is the bending's (:mod:`.kernels`); the cushion prisms' is central differences
+of their analytic gradient, element by element (the volume is smooth; the step is
+:data:`HESSIAN_STEP_M`), which keeps Newton's method quadratic to the residuals the path solver
+asks for.
 """
 
 from typing import Callable, cast

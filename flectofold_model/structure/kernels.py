@@ -3,11 +3,11 @@
 The same rules as :mod:`.shell` and :mod:`.elements` (the mid-edge plate energy
 ``s^T M s`` with ``s = sin(beta) - sin(beta0)`` per face; the signed dihedral angle and its
 closed-form gradient of Bridson, Marino & Fedkiw, SCA 2003; the dihedral angle's own second
-derivatives as central differences of that gradient with the step
-:data:`~.elements.HESSIAN_STEP_M`, symmetrised), written as loops over the faces and
-compiled, so that no ``(m, 21, 21)`` temporaries or per-hinge Python calls are made. The
-tests hold them to central differences of the numpy energy (:meth:`.shell.MidEdgeBending.
-local_energy`) and of this gradient; the dihedral angle itself is :mod:`.elements`'s.
+derivatives as the derivatives of that closed form, :func:`_dihedral_hessian`, symmetrised),
+written as loops over the faces and compiled, so that no ``(m, 21, 21)`` temporaries or
+per-hinge Python calls are made. The tests hold them to central differences of the numpy
+energy (:meth:`.shell.MidEdgeBending.local_energy`) and of this gradient; the dihedral angle
+itself is :mod:`.elements`'s.
 
 A face's local unknowns are 21: its three corners, the three wings across its edges (the far
 corner of the neighbouring face; a boundary edge repeats the opposite corner), 18
@@ -76,6 +76,100 @@ def _dihedral(x: FloatArray, slots: IntArray, out_gradient: FloatArray) -> float
 
 
 @inline_kernel
+def _skew_into(out: FloatArray, row: int, column: int, v0: float, v1: float, v2: float,
+               sign: float) -> None:
+    """Add ``sign [v]x`` (``[v]x u = v x u``) into ``out[row:row+3, column:column+3]``."""
+    out[row, column + 1] -= sign * v2
+    out[row, column + 2] += sign * v1
+    out[row + 1, column] += sign * v2
+    out[row + 1, column + 2] -= sign * v0
+    out[row + 2, column] -= sign * v1
+    out[row + 2, column + 1] += sign * v0
+
+
+@inline_kernel
+def _dihedral_hessian(x: FloatArray, slots: IntArray, normal_a: FloatArray,
+                      normal_b: FloatArray, scratch: FloatArray, out: FloatArray) -> None:
+    """Write the dihedral angle's second derivatives ``(12, 12)`` at ``slots`` into ``out``.
+
+    The derivatives of the closed-form gradient of :func:`_dihedral`: with ``e = x1 - x0``,
+    ``a = x2 - x0``, ``b = x3 - x0``, ``n_a = e x a``, ``n_b = b x e``, ``w = |e| / |n|^2``
+    and ``alpha = (. e) / |e|^2``, the gradient is ``-w_a n_a`` on ``x2``, ``-w_b n_b`` on
+    ``x3``, ``(1 - alpha_a) w_a n_a + (1 - alpha_b) w_b n_b`` on ``x0`` and ``alpha_a w_a n_a +
+    alpha_b w_b n_b`` on ``x1``; each term differentiated by the product rule, ``d n_a =
+    ([a]x - [e]x) dx0 - [a]x dx1 + [e]x dx2`` and ``d n_b = ([e]x - [b]x) dx0 + [b]x dx1 -
+    [e]x dx3``. ``normal_a``, ``normal_b`` (3, 12) and ``scratch`` (6, 12) are work arrays.
+    """
+    p0 = 3 * slots[0]
+    p1 = 3 * slots[1]
+    p2 = 3 * slots[2]
+    p3 = 3 * slots[3]
+    e = (x[p1] - x[p0], x[p1 + 1] - x[p0 + 1], x[p1 + 2] - x[p0 + 2])
+    a = (x[p2] - x[p0], x[p2 + 1] - x[p0 + 1], x[p2 + 2] - x[p0 + 2])
+    b = (x[p3] - x[p0], x[p3 + 1] - x[p0 + 1], x[p3 + 2] - x[p0 + 2])
+    na = (e[1] * a[2] - e[2] * a[1], e[2] * a[0] - e[0] * a[2], e[0] * a[1] - e[1] * a[0])
+    nb = (b[1] * e[2] - b[2] * e[1], b[2] * e[0] - b[0] * e[2], b[0] * e[1] - b[1] * e[0])
+    length_sq = e[0] * e[0] + e[1] * e[1] + e[2] * e[2]
+    length = math.sqrt(length_sq)
+    qa = na[0] * na[0] + na[1] * na[1] + na[2] * na[2]
+    qb = nb[0] * nb[0] + nb[1] * nb[1] + nb[2] * nb[2]
+    wa = length / qa
+    wb = length / qb
+    ae = a[0] * e[0] + a[1] * e[1] + a[2] * e[2]
+    be = b[0] * e[0] + b[1] * e[1] + b[2] * e[2]
+    along_a = ae / length_sq
+    along_b = be / length_sq
+    for r in range(3):
+        for c in range(12):
+            normal_a[r, c] = 0.0
+            normal_b[r, c] = 0.0
+    _skew_into(normal_a, 0, 0, a[0], a[1], a[2], 1.0)
+    _skew_into(normal_a, 0, 0, e[0], e[1], e[2], -1.0)
+    _skew_into(normal_a, 0, 3, a[0], a[1], a[2], -1.0)
+    _skew_into(normal_a, 0, 6, e[0], e[1], e[2], 1.0)
+    _skew_into(normal_b, 0, 0, e[0], e[1], e[2], 1.0)
+    _skew_into(normal_b, 0, 0, b[0], b[1], b[2], -1.0)
+    _skew_into(normal_b, 0, 3, b[0], b[1], b[2], 1.0)
+    _skew_into(normal_b, 0, 9, e[0], e[1], e[2], -1.0)
+    # scratch rows: d|e|, d w_a, d w_b, d alpha_a, d alpha_b (each 12).
+    for c in range(12):
+        for r in range(5):
+            scratch[r, c] = 0.0
+    for k in range(3):
+        scratch[0, k] = -e[k] / length
+        scratch[0, 3 + k] = e[k] / length
+    for c in range(12):
+        dqa = 0.0
+        dqb = 0.0
+        for k in range(3):
+            dqa += 2.0 * na[k] * normal_a[k, c]
+            dqb += 2.0 * nb[k] * normal_b[k, c]
+        scratch[1, c] = scratch[0, c] / qa - length * dqa / (qa * qa)
+        scratch[2, c] = scratch[0, c] / qb - length * dqb / (qb * qb)
+    for k in range(3):
+        # d(a.e) = e.da + a.de and d|e|^2 = 2 e.de, da = dx2 - dx0, db = dx3 - dx0,
+        # de = dx1 - dx0.
+        scratch[3, k] = (-e[k] - a[k]) / length_sq + 2.0 * ae * e[k] / (length_sq * length_sq)
+        scratch[3, 3 + k] = a[k] / length_sq - 2.0 * ae * e[k] / (length_sq * length_sq)
+        scratch[3, 6 + k] = e[k] / length_sq
+        scratch[4, k] = (-e[k] - b[k]) / length_sq + 2.0 * be * e[k] / (length_sq * length_sq)
+        scratch[4, 3 + k] = b[k] / length_sq - 2.0 * be * e[k] / (length_sq * length_sq)
+        scratch[4, 9 + k] = e[k] / length_sq
+    for r in range(3):
+        big_a = wa * na[r]
+        big_b = wb * nb[r]
+        for c in range(12):
+            d_a = na[r] * scratch[1, c] + wa * normal_a[r, c]
+            d_b = nb[r] * scratch[2, c] + wb * normal_b[r, c]
+            out[6 + r, c] = -d_a
+            out[9 + r, c] = -d_b
+            out[r, c] = ((1.0 - along_a) * d_a - big_a * scratch[3, c]
+                         + (1.0 - along_b) * d_b - big_b * scratch[4, c])
+            out[3 + r, c] = (along_a * d_a + big_a * scratch[3, c]
+                             + along_b * d_b + big_b * scratch[4, c])
+
+
+@inline_kernel
 def _hinge_slots(edge: int, slots: IntArray) -> None:
     slots[0] = (edge + 1) % 3
     slots[1] = (edge + 2) % 3
@@ -136,12 +230,12 @@ def bending_gradient(local: FloatArray, interior: BoolArray, side: FloatArray,
 
 @kernel
 def bending_hessian(local: FloatArray, interior: BoolArray, side: FloatArray,
-                    quadratic: FloatArray, rest_sine: FloatArray, step: float) -> FloatArray:
+                    quadratic: FloatArray, rest_sine: FloatArray) -> FloatArray:
     """Hessian of the mid-edge bending energy per face ``(m, 21 * 21)``, row by row.
 
     ``2 ds^T M ds + sum_i mu_i (cos(beta_i) d2beta_i - sin(beta_i) dbeta_i dbeta_i^T)``,
-    ``mu = 2 M s``; ``d2beta_i`` is half the dihedral angle's second derivatives, central
-    differences of its gradient with ``step`` [m], symmetrised.
+    ``mu = 2 M s``; ``d2beta_i`` is half the dihedral angle's second derivatives
+    (:func:`_dihedral_hessian`), symmetrised.
     """
     count = local.shape[0]
     out = np.zeros((count, 21 * 21))
@@ -151,10 +245,10 @@ def bending_hessian(local: FloatArray, interior: BoolArray, side: FloatArray,
     moment = np.empty(3)
     slots = np.empty(4, dtype=np.int64)
     gradient = np.empty(12)
-    plus = np.empty(12)
-    minus = np.empty(12)
     second = np.empty((12, 12))
-    probe = np.empty(21)
+    normal_a = np.empty((3, 12))
+    normal_b = np.empty((3, 12))
+    scratch = np.empty((6, 12))
     for f in range(count):
         x = local[f]
         _tilts(x, interior[f], side[f], beta, d_beta, slots, gradient)
@@ -187,17 +281,7 @@ def bending_hessian(local: FloatArray, interior: BoolArray, side: FloatArray,
                 continue
             weight = 0.5 * moment[i] * math.cos(beta[i])
             _hinge_slots(i, slots)
-            for k in range(21):
-                probe[k] = x[k]
-            for column in range(12):
-                index = 3 * slots[column // 3] + column % 3
-                probe[index] = x[index] + step
-                _dihedral(probe, slots, plus)
-                probe[index] = x[index] - step
-                _dihedral(probe, slots, minus)
-                probe[index] = x[index]
-                for row in range(12):
-                    second[row, column] = (plus[row] - minus[row]) / (2.0 * step)
+            _dihedral_hessian(x, slots, normal_a, normal_b, scratch, second)
             for row in range(12):
                 a = 3 * slots[row // 3] + row % 3
                 for column in range(12):

@@ -118,12 +118,12 @@ class MidEdgeBending:
         ``E = s^T M s`` with ``s = sin(beta) - sin(beta0)``: the chain rule gives
         ``2 ds^T M ds + sum_i mu_i (cos(beta_i) d2beta_i - sin(beta_i) dbeta_i dbeta_i^T)``,
         ``mu = 2 M s``; the dihedral angles' own second derivatives ``d2beta_i`` (half the
-        dihedral's) are central differences of their closed-form gradients with the step
-        :data:`~.elements.HESSIAN_STEP_M`. Compiled (:func:`.kernels.bending_hessian`).
+        dihedral's) are the derivatives of their closed-form gradients. Compiled
+        (:func:`.kernels.bending_hessian`).
         """
         return kernels.bending_hessian(np.ascontiguousarray(local), self.interior, self.side,
-                                       self.quadratic, self.rest_sine,
-                                       elements.HESSIAN_STEP_M).reshape(len(local), 21, 21)
+                                       self.quadratic,
+                                       self.rest_sine).reshape(len(local), 21, 21)
 
     def _tilts(self, local: FloatArray) -> FloatArray:
         """Director tilts ``beta`` ``(m, 3)`` of local unknowns ``(m, 21)``."""

@@ -252,6 +252,29 @@ def test_the_compiled_membrane_kernels_are_the_numpy_rules():
     assert np.max(np.abs(compiled - hessian.reshape(60, 81))) < 1e-13 * np.max(np.abs(hessian))
 
 
+def test_the_dihedral_angles_second_derivatives_are_those_of_its_gradient():
+    rng = np.random.default_rng(9)
+    slots, step = np.arange(4), 1e-6
+    second = np.empty((12, 12))
+    work = np.empty((3, 12)), np.empty((3, 12)), np.empty((6, 12))
+    plus, minus = np.empty(12), np.empty(12)
+    for _ in range(20):
+        corners = (np.array([[0, 0, 0], [1, 0, 0], [0.4, 1, 0.2], [0.6, -1, 0.3]], float)
+                   + rng.normal(0, 0.2, (4, 3)))
+        local = np.concatenate([corners.ravel(), np.zeros(6)])
+        kernels._dihedral_hessian(local, slots, *work, second)
+        numeric = np.empty((12, 12))
+        for column in range(12):
+            moved = local.copy()
+            moved[column] += step
+            kernels._dihedral(moved, slots, plus)
+            moved[column] -= 2 * step
+            kernels._dihedral(moved, slots, minus)
+            numeric[:, column] = (plus - minus) / (2 * step)
+        assert np.max(np.abs(second - numeric)) < 1e-8 * np.max(np.abs(numeric))
+        assert np.max(np.abs(second - second.T)) < 1e-13 * np.max(np.abs(second))
+
+
 def test_the_compiled_scatter_sums_as_bincount_does():
     rng = np.random.default_rng(8)
     entries = rng.normal(size=500)
