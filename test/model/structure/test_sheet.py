@@ -211,17 +211,26 @@ def test_a_sheet_moulded_in_a_shape_is_stress_free_there():
     assert np.max(np.abs(held.reactions_n)) < 1e-6
 
 
-def test_the_membrane_hessian_matches_central_differences_of_the_gradient():
-    rng = np.random.default_rng(5)
-    flat = rng.normal(0, 1, (40, 3, 2))
+def deformed_triangles(seed, count):
+    """Random flat triangles and their corners stretched, sheared and turned out of plane.
+
+    Return ``corners (count, 3, 3)``, the reference inverse and area, modulus and Poisson's
+    ratio: both the material and the geometric part of the membrane stiffness at work.
+    """
+    rng = np.random.default_rng(seed)
+    flat = rng.normal(0, 1, (count, 3, 2))
     clockwise = np.linalg.det(np.stack([flat[:, 1] - flat[:, 0], flat[:, 2] - flat[:, 0]],
                                        -1)) < 0
     flat[clockwise] = flat[clockwise][:, [0, 2, 1]]
     inverse, area = elements.membrane_reference(flat)
-    # Stretched, sheared and turned out of plane: both the material and the geometric part.
-    corners = (np.concatenate([flat, np.zeros((40, 3, 1))], -1)
-               + rng.normal(0, 0.3, (40, 3, 3)))
-    modulus, poisson = rng.uniform(1e5, 1e6, 40), rng.uniform(0.0, 0.45, 40)
+    corners = (np.concatenate([flat, np.zeros((count, 3, 1))], -1)
+               + rng.normal(0, 0.3, (count, 3, 3)))
+    return (corners, np.ascontiguousarray(inverse), area, rng.uniform(1e5, 1e6, count),
+            rng.uniform(0.0, 0.45, count))
+
+
+def test_the_membrane_hessian_matches_central_differences_of_the_gradient():
+    corners, inverse, area, modulus, poisson = deformed_triangles(5, 40)
     analytic = elements.membrane_hessian(corners, inverse, area, modulus, poisson)
     numeric = elements.finite_difference_hessian(
         lambda local: elements.membrane_gradient(local.reshape(-1, 3, 3), inverse, area,
@@ -233,17 +242,8 @@ def test_the_membrane_hessian_matches_central_differences_of_the_gradient():
 
 
 def test_the_compiled_membrane_kernels_are_the_numpy_rules():
-    rng = np.random.default_rng(7)
-    flat = rng.normal(0, 1, (60, 3, 2))
-    clockwise = np.linalg.det(np.stack([flat[:, 1] - flat[:, 0], flat[:, 2] - flat[:, 0]],
-                                       -1)) < 0
-    flat[clockwise] = flat[clockwise][:, [0, 2, 1]]
-    inverse, area = elements.membrane_reference(flat)
-    corners = (np.concatenate([flat, np.zeros((60, 3, 1))], -1)
-               + rng.normal(0, 0.3, (60, 3, 3)))
-    modulus, poisson = rng.uniform(1e5, 1e6, 60), rng.uniform(0.0, 0.45, 60)
+    corners, inverse, area, modulus, poisson = deformed_triangles(7, 60)
     local = np.ascontiguousarray(corners.reshape(60, 9))
-    inverse = np.ascontiguousarray(inverse)
     gradient = elements.membrane_gradient(corners, inverse, area, modulus, poisson)
     compiled = kernels.membrane_gradient(local, inverse, area, modulus, poisson)
     assert np.max(np.abs(compiled - gradient.reshape(60, 9))) < 1e-13 * np.max(np.abs(gradient))
