@@ -16,7 +16,6 @@ The energy choice (the default) keeps each panel's own statics.
 
 from typing import cast, Optional, TYPE_CHECKING
 
-import numpy as np
 
 from flectofold_model._validate import FloatArray
 from flectofold_model.actuation import actuated_like, ATMOSPHERIC_PRESSURE_PA
@@ -113,8 +112,8 @@ def structural_close_air_nl(facade: 'Facade', dead_volume_m3: float) -> FloatArr
                                             trace=False)
     else:
         cushion_map = median_structural_map(facade, len(facade), trace=False)
-    tables, row = cushion_map.tables()[:2], cushion_map.tables()[-1]
-    pressure, volume = (np.asarray(table)[np.asarray(row)] for table in tables)
+    pressure, volume, _, row = cushion_map.tables()
+    pressure, volume = pressure[row], volume[row]
     closed = (ATMOSPHERIC_PRESSURE_PA + pressure[:, -1]) * (volume[:, -1] + dead_volume_m3)
     opened = ATMOSPHERIC_PRESSURE_PA * (volume[:, 0] + dead_volume_m3)
     return (closed - opened) / ATMOSPHERIC_PRESSURE_PA * 1e3

@@ -152,6 +152,25 @@ def symmetric_factor(matrix: csc_matrix) -> tuple['CholeskyFactor | SuperLU', Op
     return factor, None if pivots is None else int(np.count_nonzero(pivots < 0.0))
 
 
+def positive_definite(matrix: csc_matrix) -> 'CholeskyFactor | SuperLU | None':
+    """Return a factor of a symmetric ``matrix`` if it is positive definite, else None.
+
+    Cholesky's success (:func:`cholesky`), or else SuperLU's symmetric mode with every pivot
+    above zero (:func:`lu_pivots`).
+
+    Raises
+    ------
+    RuntimeError
+        Where SuperLU finds the matrix exactly singular.
+    """
+    found = cholesky(matrix)
+    if found is not None:
+        return found
+    factor = symmetric_lu(matrix)
+    pivots = lu_pivots(factor)
+    return factor if pivots is not None and np.all(pivots > 0.0) else None
+
+
 def symmetric_lu(matrix: csc_matrix) -> SuperLU:
     """Factorise in SuperLU's symmetric mode: minimum degree on ``A + A^T``, diagonal pivots."""
     return splu(matrix, permc_spec='MMD_AT_PLUS_A', diag_pivot_thresh=0.0,

@@ -98,7 +98,7 @@ def _dihedral_hessian(x: FloatArray, slots: IntArray, normal_a: FloatArray,
     ``x3``, ``(1 - alpha_a) w_a n_a + (1 - alpha_b) w_b n_b`` on ``x0`` and ``alpha_a w_a n_a +
     alpha_b w_b n_b`` on ``x1``; each term differentiated by the product rule, ``d n_a =
     ([a]x - [e]x) dx0 - [a]x dx1 + [e]x dx2`` and ``d n_b = ([e]x - [b]x) dx0 + [b]x dx1 -
-    [e]x dx3``. ``normal_a``, ``normal_b`` (3, 12) and ``scratch`` (6, 12) are work arrays.
+    [e]x dx3``. ``normal_a``, ``normal_b`` (3, 12) and ``scratch`` (5, 12) are work arrays.
     """
     p0 = 3 * slots[0]
     p1 = 3 * slots[1]
@@ -248,7 +248,7 @@ def bending_hessian(local: FloatArray, interior: BoolArray, side: FloatArray,
     second = np.empty((12, 12))
     normal_a = np.empty((3, 12))
     normal_b = np.empty((3, 12))
-    scratch = np.empty((6, 12))
+    scratch = np.empty((5, 12))
     for f in range(count):
         x = local[f]
         _tilts(x, interior[f], side[f], beta, d_beta, slots, gradient)

@@ -36,12 +36,14 @@ total rotation the hinge zone carries, which is what the kinematic model's fold 
 """
 
 from dataclasses import dataclass, fields, replace
+from functools import cached_property
 import math
 from typing import Any, Callable, cast, ClassVar, Optional, Protocol, TYPE_CHECKING
 
 import numpy as np
 
 from flectofold_model._validate import FloatArray, IntArray
+from flectofold_model.actuation.circuit import PlantParameters
 from flectofold_model.structure.sheet import (PathError, PathPoint, Sheet, SheetSystem,
                                               solve_prescribed)
 
@@ -124,7 +126,7 @@ AIR_LIMIT_FACTOR = 2.0
 WIND_PRESSURE_PA = 1000.0
 #: Rigid volume of tubing that shares the cushion's air when its valves are shut [m3]: the
 #: pneumatic plant's default (``PlantParameters.dead_volume_m3``).
-DEAD_VOLUME_M3 = 2e-4
+DEAD_VOLUME_M3: float = PlantParameters.dead_volume_m3
 
 
 def check_mesh_counts(mesh: MeshCounts) -> None:
@@ -226,10 +228,14 @@ class PanelSheet:
         ``q = p``, and a triangle's least ``y`` is at a corner. Not above 0: the flaps touch
         or pass through each other.
         """
+        return 2.0 * float(np.min(positions_m[self._upper_flap_nodes, 1]))
+
+    @cached_property
+    def _upper_flap_nodes(self) -> IntArray:
+        """Nodes of the +y flap's triangles (made once)."""
         flap = np.asarray(self.sheet.zone) == FLAP
         nodes = np.unique(np.asarray(self.sheet.triangles)[flap])
-        upper = nodes[np.asarray(self.sheet.reference_xy_m)[nodes, 1] > 0.0]
-        return 2.0 * float(np.min(positions_m[upper, 1]))
+        return nodes[np.asarray(self.sheet.reference_xy_m)[nodes, 1] > 0.0]
 
 
 def build_panel_sheet(panel: 'ActuatedPanel', mesh: PanelMesh = PanelMesh()) -> PanelSheet:

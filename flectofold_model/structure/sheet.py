@@ -22,7 +22,8 @@ from scipy.sparse.linalg import splu, SuperLU
 
 from flectofold_model._validate import FloatArray, IntArray
 from flectofold_model.structure import elements, kernels
-from flectofold_model.structure.factor import CholeskyFactor, lu_pivots, symmetric_factor
+from flectofold_model.structure.factor import (CholeskyFactor, positive_definite,
+                                               symmetric_factor)
 from flectofold_model.structure.shell import MidEdgeBending
 
 
@@ -391,14 +392,11 @@ def positive_definite_factor(matrix: csc_matrix,
         shifted = matrix if shift == 0.0 else (matrix + shift * identity(
             matrix.shape[0], format='csc')).tocsc()
         try:
-            factor, negatives = symmetric_factor(shifted)
+            found = positive_definite(shifted)
         except RuntimeError:
-            factor, negatives = None, None
-        if isinstance(factor, CholeskyFactor):
-            return factor
-        pivots = None if factor is None else lu_pivots(factor)
-        if negatives == 0 and pivots is not None and np.all(pivots > 0.0):
-            return factor
+            found = None
+        if found is not None:
+            return found
         shift = 1e-8 * scale if shift == 0.0 else 10.0 * shift
     return factorise(matrix)
 

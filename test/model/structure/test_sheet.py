@@ -256,7 +256,7 @@ def test_the_dihedral_angles_second_derivatives_are_those_of_its_gradient():
     rng = np.random.default_rng(9)
     slots, step = np.arange(4), 1e-6
     second = np.empty((12, 12))
-    work = np.empty((3, 12)), np.empty((3, 12)), np.empty((6, 12))
+    work = np.empty((3, 12)), np.empty((3, 12)), np.empty((5, 12))
     plus, minus = np.empty(12), np.empty(12)
     for _ in range(20):
         corners = (np.array([[0, 0, 0], [1, 0, 0], [0.4, 1, 0.2], [0.6, -1, 0.3]], float)
