@@ -277,6 +277,7 @@ ROSDEP_KEYS = {
     'rerun': 'python3-rerun-sdk-pip', 'rerun_cli': 'python3-rerun-sdk-pip',
     'launch_ros': 'launch_ros', 'cryptography': 'python3-cryptography',
     'bacpypes3': 'python3-bacpypes3-pip', 'cvxopt': 'python3-cvxopt',
+    'threadpoolctl': 'python3-threadpoolctl',
 }
 #: ROS packages whose Python module has the package's name.
 ROS_PACKAGES = {'rclpy', 'builtin_interfaces', 'rcl_interfaces', 'std_msgs', 'std_srvs',

@@ -41,6 +41,7 @@ import math
 from typing import Any, Callable, cast, ClassVar, Optional, Protocol, TYPE_CHECKING
 
 import numpy as np
+from threadpoolctl import threadpool_limits
 
 from flectofold_model._validate import FloatArray, IntArray
 from flectofold_model.actuation.circuit import PlantParameters
@@ -129,13 +130,23 @@ WIND_PRESSURE_PA = 1000.0
 DEAD_VOLUME_M3: float = PlantParameters.dead_volume_m3
 
 
+#: Fields of a mesh that shape its rows rather than count them.
+SHAPE_FIELDS = ('flap_growth',)
+#: Bounds of :attr:`PanelMesh.flap_growth` [-]: beyond them the narrowest flap row is less
+#: than a tenth of the widest (a hundredth of the width at the default 8 rows).
+FLAP_GROWTH_BOUNDS = (0.1, 10.0)
+
+
 def check_mesh_counts(mesh: MeshCounts) -> None:
     """Refuse a structured mesh's counts that cannot be meshed (either panel kind).
 
-    Every field an integer of at least 1; ``columns`` even and at least 4, so that the mesh
-    has a middle column line and keeps its mirror symmetry.
+    Every count (a field other than :data:`SHAPE_FIELDS`) an integer of at least 1;
+    ``columns`` even and at least 4, so that the mesh has a middle column line and keeps its
+    mirror symmetry.
     """
     for field in fields(mesh):
+        if field.name in SHAPE_FIELDS:
+            continue
         value = getattr(mesh, field.name)
         if not isinstance(value, (int, np.integer)) or value < 1:
             raise ValueError(f'{field.name} must be a positive integer, got {value!r}')
@@ -155,14 +166,34 @@ class PanelMesh:
     """Rows across each hinge band."""
     flap_rows: int = 8
     """Rows across each flap."""
+    flap_growth: float = 1.0
+    """Width of a flap's outermost row over its innermost (by the hinge) [-]; the rows between
+    grow geometrically. Above 1 the flap is meshed finer where it bends most, beside the
+    hinge band. Within :data:`FLAP_GROWTH_BOUNDS`."""
 
     def __post_init__(self) -> None:
         check_mesh_counts(self)
+        low, high = FLAP_GROWTH_BOUNDS
+        growth = self.flap_growth
+        if (isinstance(growth, bool) or not isinstance(growth, (int, float, np.floating))
+                or not low <= growth <= high):
+            raise ValueError(f'flap_growth must be a number from {low:g} to {high:g}, '
+                             f'got {growth!r}')
 
     def refined(self, factor: int) -> 'PanelMesh':
-        """Return the same mesh with every count multiplied by ``factor``."""
+        """Return the same mesh with every count multiplied by ``factor`` (the growth kept)."""
         return PanelMesh(self.columns * factor, self.midrib_rows * factor,
-                         self.hinge_rows * factor, self.flap_rows * factor)
+                         self.hinge_rows * factor, self.flap_rows * factor, self.flap_growth)
+
+
+#: A quad mesh whose tip travel at every air is within 1 % of :data:`REFERENCE_MESH`'s, which
+#: has twice its columns and flap rows, for every preset that closes
+#: (``bench/bench_structure.py --converged``; figures in ``msg_docs/structure.md``, "A mesh
+#: converged in tip travel"): the hinge bands need their elements fine both along and across,
+#: the flap rows are graded from the hinge.
+CONVERGED_MESH = PanelMesh(160, 8, 8, 8, 4.0)
+#: The mesh :data:`CONVERGED_MESH` is measured against.
+REFERENCE_MESH = PanelMesh(320, 8, 8, 16, 4.0)
 
 
 @dataclass(frozen=True)
@@ -257,7 +288,7 @@ def build_panel_sheet(panel: 'ActuatedPanel', mesh: PanelMesh = PanelMesh()) -> 
     fractions = np.concatenate([
         np.linspace(0.0, 1.0, mesh.midrib_rows + 1)[:, None] * inner,
         inner + np.linspace(0.0, 1.0, mesh.hinge_rows + 1)[1:, None] * (outer - inner),
-        outer + np.linspace(0.0, 1.0, mesh.flap_rows + 1)[1:, None]
+        outer + graded_fractions(mesh.flap_rows, mesh.flap_growth)[1:, None]
         * (geometry.width_m / 2 - outer)])
     upper = fractions.T
     y = np.concatenate([-upper[:, :0:-1], upper], axis=1)
@@ -289,6 +320,19 @@ def build_panel_sheet(panel: 'ActuatedPanel', mesh: PanelMesh = PanelMesh()) -> 
     return PanelSheet(sheet, grid, x, half + mesh.midrib_rows,
                       half + mesh.midrib_rows + mesh.hinge_rows,
                       int(grid[mesh.columns // 2, -1]), geometry)
+
+
+def graded_fractions(intervals: int, growth: float) -> FloatArray:
+    """Fractions ``0 ... 1`` bounding ``intervals`` rows whose widths grow geometrically.
+
+    The last row is ``growth`` times as wide as the first; ``growth == 1`` spaces them evenly.
+    """
+    if intervals == 1 or growth == 1.0:
+        return np.linspace(0.0, 1.0, intervals + 1)
+    widths = float(growth) ** (np.arange(intervals) / (intervals - 1))
+    fractions = np.concatenate([[0.0], np.cumsum(widths) / widths.sum()])
+    fractions[-1] = 1.0
+    return fractions
 
 
 def checker_triangles(grid: IntArray) -> tuple[IntArray, IntArray]:
@@ -627,7 +671,18 @@ def trace_panel_path(panel_sheet: MeshedPanel, prefold_rad: float, target_fold_r
     ``panel_sheet`` is a meshed panel of either kind (:class:`PanelSheet`,
     :class:`~.hexagon.HexagonSheet`); the other parameters are those of
     :func:`structural_path`.
+
+    BLAS runs on one thread while the path is traced (process-wide, restored after): a second
+    thread costs CPU without shortening the path (measured in ``msg_docs/structure.md``).
     """
+    with threadpool_limits(limits=1, user_api='blas'):
+        return _trace_panel_path(panel_sheet, prefold_rad, target_fold_rad, air_estimate_m3,
+                                 steps, tolerance, progress)
+
+
+def _trace_panel_path(panel_sheet: MeshedPanel, prefold_rad: float, target_fold_rad: float,
+                      air_estimate_m3: float, steps: int, tolerance: float,
+                      progress: Optional[Progress]) -> StructuralPath:
     from flectofold_model.structure.sheet import trace_path
 
     sheet, start, moulding_energy = mould_prefold(panel_sheet, prefold_rad)

@@ -75,7 +75,29 @@ def test_a_mesh_refuses_counts_it_cannot_mesh(field, value):
 
 def test_the_smallest_mesh_is_accepted():
     assert PanelMesh(4, 1, 1, 1).refined(2) == PanelMesh(8, 2, 2, 2)
-    assert PanelMesh() == PanelMesh(80, 8, 4, 8)
+    assert PanelMesh() == PanelMesh(80, 8, 4, 8, 1.0)
+
+
+@pytest.mark.parametrize('growth', [0.0999, 10.001, 0.0, -2.0, math.nan, math.inf, True, '2'])
+def test_a_mesh_refuses_a_flap_growth_beyond_its_bounds(growth):
+    with pytest.raises(ValueError, match='flap_growth must be a number from 0.1 to 10'):
+        PanelMesh(flap_growth=growth)
+
+
+@pytest.mark.parametrize('growth', [0.1, 1, 4.0, 10.0])
+def test_the_flap_rows_grow_geometrically_from_the_hinge_by_the_flap_growth(growth):
+    mesh = PanelMesh(8, 2, 1, 5, growth)
+    sheet = build_panel_sheet(DEMONSTRATOR_ACTUATED, mesh)
+    assert mesh.refined(2).flap_growth == growth
+    y = sheet.sheet.reference_xy_m[:, 1].reshape(sheet.grid.shape)
+    widths = np.diff(y[:, sheet.outer_row:], axis=1)
+    assert widths.shape[1] == 5
+    # The flap's edge stays where the panel's is, and each row is the one before times the
+    # same factor, the last ``growth`` times the first, at every column.
+    assert y[:, -1] == pytest.approx(DEMONSTRATOR_ACTUATED.geometry.width_m / 2, abs=1e-15)
+    ratios = widths[:, 1:] / widths[:, :-1]
+    assert ratios == pytest.approx(np.full_like(ratios, float(growth) ** 0.25), rel=1e-12)
+    assert widths[:, -1] / widths[:, 0] == pytest.approx(np.full(9, float(growth)), rel=1e-12)
 
 
 def test_hinge_bands_that_meet_on_the_axis_at_the_supports_are_refused():
@@ -332,3 +354,25 @@ def test_a_path_ends_where_the_flaps_would_touch(monkeypatch):
     assert folds[-1] >= 20.0 > folds[-2]
     assert touched.flap_gap_m[-1] <= 0.0 < touched.flap_gap_m[-2]
     assert touched.closed_wind is None
+
+
+def test_blas_runs_on_one_thread_while_a_path_is_traced_and_as_before_after():
+    from threadpoolctl import threadpool_info, threadpool_limits
+
+    def blas_threads():
+        return {pool['filepath']: pool['num_threads'] for pool in threadpool_info()
+                if pool['user_api'] == 'blas'}
+
+    seen = []
+    # Two threads before, whatever the machine has, so that the limit has something to do.
+    with threadpool_limits(limits=2, user_api='blas'):
+        before = blas_threads()
+        structural_path(DEMONSTRATOR_ACTUATED, COARSE, target_fold_rad=math.radians(10.0),
+                        steps=4, progress=lambda *_: seen.append(blas_threads()))
+        after = blas_threads()
+    # (a BLAS built for one thread, as cvxopt's may be, stays at one)
+    assert before and max(before.values()) == 2
+    # Every BLAS loaded, those the path loads too (CHOLMOD's), on one thread at every step.
+    assert seen and all(set(threads.values()) == {1} and set(before) <= set(threads)
+                        for threads in seen)
+    assert {path: after[path] for path in before} == before
