@@ -6,11 +6,12 @@ The plant, the pressure loops and the scheduler see a panel only through its
 reads them off a quad panel's structural path (:func:`~.panel.structural_path`) instead of the
 energy statics: the pressure and the air where the path's apex fold is the closure's, the
 compliance as ``d(air)/dp`` along the path (central differences between its equilibria,
-interpolated), the fold angle the closure's own. A path is a few CPU minutes on the default
-mesh, so the tables are cached on disk per panel design, like the compiled kernels: the key is
-a digest of the panel (geometry, laminates, cushion), the mesh, the closures and every source
-file of :mod:`flectofold_model.structure`, so a change to any of them computes afresh; callers
-that ask for one design at once trace it once (a lock per entry).
+interpolated), the fold angle the closure's own. A path is about 15 s of CPU on
+:data:`MAP_MESH`, so the tables are cached on disk per panel design, like the compiled
+kernels: the key is a digest of the panel (geometry, laminates, cushion), the mesh, the
+closures and every source file of :mod:`flectofold_model.structure`, so a change to any of
+them computes afresh; callers that ask for one design at once trace it once (a lock per
+entry).
 
 Only a path that closes with its pressure rising all the way makes a map: a panel that does not
 close in the structure (the hexagonal module, the 1000 mm radius variant) or that passes a
@@ -33,13 +34,16 @@ from flectofold_model._validate import FloatArray
 from flectofold_model.actuation.cushion_map import CushionMap, distinct_panels
 from flectofold_model.actuation.statics import ActuatedPanel
 from flectofold_model.structure.comparison import closure_apex_folds_rad
-from flectofold_model.structure.panel import (PanelMesh, Progress, structural_path,
-                                              StructuralPath)
+from flectofold_model.structure.panel import (CONVERGED_MESH, PanelMesh, Progress,
+                                              structural_path, StructuralPath)
 
 _PACKAGE = Path(__file__).resolve().parent
 #: Environment variable naming the cache directory (default ``~/.cache/flectofold/structure``).
 CACHE_ENVIRONMENT = 'FLECTOFOLD_STRUCTURE_CACHE'
 _FIELDS = ('pressure_pa', 'volume_m3', 'compliance_m3_per_pa', 'fold_angle_rad')
+#: The mesh a map is traced on unless another is given: the one whose tip travel is converged
+#: to 1 % (the default mesh's closing pressure is up to 14 % low; ``msg_docs/structure.md``).
+MAP_MESH = CONVERGED_MESH
 
 
 def cache_directory() -> Path:
@@ -61,7 +65,7 @@ class NotCached(ValueError):
     """A structural map asked for without tracing (``trace=False``) is not in the cache."""
 
 
-def structural_tables(actuated: ActuatedPanel, mesh: PanelMesh = PanelMesh(), samples: int = 129,
+def structural_tables(actuated: ActuatedPanel, mesh: PanelMesh = MAP_MESH, samples: int = 129,
                       cache: bool = True, progress: Optional[Progress] = None,
                       trace: bool = True) -> tuple[FloatArray, ...]:
     """Pressure, volume, compliance and apex fold (S,) of a quad panel at ``samples`` closures.
@@ -119,7 +123,7 @@ def structural_tables(actuated: ActuatedPanel, mesh: PanelMesh = PanelMesh(), sa
     return tables
 
 
-def structural_cushion_map(panels: Iterable[ActuatedPanel], mesh: PanelMesh = PanelMesh(),
+def structural_cushion_map(panels: Iterable[ActuatedPanel], mesh: PanelMesh = MAP_MESH,
                            samples: int = 129, cache: bool = True, trace: bool = True,
                            progress: Optional[Progress] = None) -> CushionMap:
     """Return the :class:`~..actuation.cushion_map.CushionMap` of quad panels from the structure.

@@ -5,7 +5,7 @@ pressure loops and the scheduler's air per move take the pressure, air and compl
 panel from the structural model (:mod:`.cushion_tables`) instead of the energy statics. The
 structure is traced for one panel, the facade's median panel by footprint area
 (:func:`~flectofold_model.facade.footprint.representative_panel`, as the shading table), and
-its map drives every panel of the facade: one path costs about 10 s of CPU, and the panels
+its map drives every panel of the facade: one path costs about 15 s of CPU, and the panels
 of one facade differ by millimetres in size and tenths of a degree in pre-fold.
 ``structural_per_panel`` traces every panel's own design instead (one path per distinct
 design, each cached): what the median's map leaves out is measured in
@@ -46,7 +46,7 @@ def facade_cushion_map(facade: 'Facade', model: StaticActuationModel, trace: boo
         as :func:`~flectofold_model.actuation.kinds.actuated_like` makes them).
     trace : bool
         Structural only: trace the median panel's path (or each panel's) when the cache does
-        not have it (about 10 s of CPU each). False raises
+        not have it (about 15 s of CPU each). False raises
         :class:`~.cushion_tables.NotCached` naming the command that computes it.
     progress : callable, optional
         Structural only: passed to the path tracer.
@@ -71,7 +71,7 @@ def panels_structural_map(facade: 'Facade', panels: list[ActuatedPanel], trace: 
     except NotCached as error:
         raise NotCached(f'facade {facade.name} takes the cushion map of each panel from the '
                         f'structure (actuation.cushion_map: structural_per_panel): {error}; '
-                        f'compute them once with `{WARM_UP}` (about 10 s of CPU per panel '
+                        f'compute them once with `{WARM_UP}` (about 15 s of CPU per panel '
                         f'design; `facade` does it before it starts its panels)') from None
 
 
@@ -95,7 +95,7 @@ def median_structural_map(facade: 'Facade', count: int = 1, trace: bool = True,
         raise NotCached(f'facade {facade.name} takes its cushion map from the structure '
                         f'(actuation.cushion_map: structural), traced for its median panel '
                         f'{facade.panel_ids[median]}: {error}; compute it once with '
-                        f'`{WARM_UP}` (about 10 s of CPU; `facade` does it before it starts '
+                        f'`{WARM_UP}` (about 15 s of CPU; `facade` does it before it starts '
                         f'its panels)') from None
 
 

@@ -2,7 +2,7 @@
 
 ``structure_cache [--facade FILE]``: for a facade whose description says
 ``actuation: {cushion_map: structural}``, trace the structural path of its median panel
-(about 10 s of CPU) into the cache (``$FLECTOFOLD_STRUCTURE_CACHE``, default
+(about 15 s of CPU) into the cache (``$FLECTOFOLD_STRUCTURE_CACHE``, default
 ``~/.cache/flectofold/structure``), or find it there, and print what the map says; with
 ``structural_per_panel``, the path of every distinct panel design, one after the other, a
 line for each. Panel processes and the coordinator only read that cache: without the entry
@@ -46,7 +46,7 @@ def prepare_structural_map(facade, name):
         how = 'cached'
     except NotCached:
         print(f'{name}: tracing the structural path of the median panel {median} of {facade.name} '
-              f'(about 10 s of CPU, once; cached in {cache_directory()})', flush=True)
+              f'(about 15 s of CPU, once; cached in {cache_directory()})', flush=True)
         started = time.process_time()
         cushion_map = median_structural_map(facade, trace=True, progress=_progress(name))
         how = f'traced in {time.process_time() - started:.0f} s of CPU'
@@ -86,7 +86,7 @@ def _prepare_every_panel(facade, name):
             missing.append(design)
     if missing:
         print(f'{name}: tracing the structural paths of {len(missing)} of the {len(distinct)} '
-              f'panel designs of {facade.name} (about 10 s of CPU each, once; cached in '
+              f'panel designs of {facade.name} (about 15 s of CPU each, once; cached in '
               f'{cache_directory()})', flush=True)
     started = time.process_time()
     for count, design in enumerate(missing, 1):

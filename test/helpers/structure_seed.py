@@ -1,9 +1,10 @@
 """Put a facade's structural cushion map into a cache quickly, for the processes of a test.
 
-The map a facade reads is its median panel's, traced on the default mesh: about 10 s of
-CPU. A test seeds the cache entry of that design with the tables of a quick path instead (the
-same panel with a soft hinge on the coarsest mesh, about 3 s), so what it checks is that the
-processes read the cache, not the mechanics (``test/model/structure`` checks those).
+The map a facade reads is its median panel's, traced on ``cushion_tables.MAP_MESH``: about
+15 s of CPU. A test seeds the cache entry of that design with the tables of a quick path
+instead (the same panel with a soft hinge on the coarsest mesh, about 3 s), so what it checks
+is that the processes read the cache, not the mechanics (``test/model/structure`` checks
+those).
 """
 
 from dataclasses import replace

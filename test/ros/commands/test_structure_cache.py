@@ -1,6 +1,6 @@
 """``structure_cache``, and processes of a facade that takes its cushion map from the structure.
 
-Panel processes only read the cache (they must start in seconds; a path is about 10 s of
+Panel processes only read the cache (they must start in seconds; a path is about 15 s of
 CPU): without the entry they refuse, naming the command; with it they start. ``structure_cache``
 fills it, or finds it there.
 """
@@ -124,7 +124,7 @@ def test_an_uncached_map_is_traced_once_with_progress_and_then_found(
     first = prepare_structural_map(facade, 'x')
     lines = capsys.readouterr().out.splitlines()
     assert lines[0] == (f'x: tracing the structural path of the median panel r01c00 of small '
-                        f'(about 10 s of CPU, once; cached in {tmp_path / "cache"})')
+                        f'(about 15 s of CPU, once; cached in {tmp_path / "cache"})')
     assert lines[-1].startswith('x: structural cushion map of small (median panel r01c00), '
                                 'traced in ') and ' s of CPU: closed at ' in lines[-1]
     again = prepare_structural_map(facade, 'x')
@@ -154,7 +154,7 @@ def test_per_panel_every_design_is_traced_once_with_a_line_each_and_then_found(
     lines = capsys.readouterr().out.splitlines()
     assert len(calls) == designs and len(lines) == designs + 2, lines
     assert lines[0] == (f'x: tracing the structural paths of {designs} of the {designs} panel '
-                        f'designs of small (about 10 s of CPU each, once; cached in '
+                        f'designs of small (about 15 s of CPU each, once; cached in '
                         f'{tmp_path / "cache"})')
     assert all(line.startswith(f'x: {count}/{designs} panel r') and ': closed at ' in line
                for count, line in enumerate(lines[1:-1], 1)), lines
