@@ -21,7 +21,8 @@ from flectofold_model.kinematics.hexagon_panel import HEXAGON_MODULE, HexagonBat
 from flectofold_model.kinematics.hexagon_panel import HexagonPanel
 from flectofold_model.structure.comparison import kinematic_rows, structural_rows
 from flectofold_model.structure.hexagon import hexagon_structural_path, HexagonMesh
-from flectofold_model.structure.panel import PanelMesh, structural_path
+from flectofold_model.structure.panel import (CONVERGED_MESH, PanelMesh, REFERENCE_MESH,
+                                              structural_path)
 from flectofold_ros.runtime.runner import run_command
 
 PANELS = {'demonstrator': DEMONSTRATOR_MODULE, 'prototype': PROTOTYPE,
@@ -140,7 +141,9 @@ STRUCTURAL_COLUMNS = (
 STRUCTURAL_MESHES = {
     'coarse': (PanelMesh(40, 4, 2, 4), HexagonMesh(24, 6, 2, 3)),
     'default': (PanelMesh(), HexagonMesh()),
-    'fine': (PanelMesh(160, 16, 8, 16), HexagonMesh(96, 24, 8, 12)),
+    'fine': (REFERENCE_MESH, HexagonMesh(96, 24, 8, 12)),
+    # Shown converged for quad panels only (msg_docs/structure.md); no hexagon mesh is.
+    'converged': (CONVERGED_MESH, None),
 }
 
 
@@ -148,9 +151,9 @@ def structural_fold_table(panel, steps, mesh=None, rrd_path=None):
     """Lines of the structural model's table beside the reflection model's, either kind.
 
     ``mesh`` is a :class:`PanelMesh` for a quad panel, a :class:`HexagonMesh` for a hexagonal
-    one; default the kind's default mesh. ``rrd_path``: also write the path to a Rerun
-    recording there (:mod:`flectofold_ros.rerun.structure_scene`), checked before the path
-    is traced.
+    one; default :data:`CONVERGED_MESH` for a quad panel, the hexagon's default mesh.
+    ``rrd_path``: also write the path to a Rerun recording there
+    (:mod:`flectofold_ros.rerun.structure_scene`), checked before the path is traced.
     """
     if rrd_path is not None:
         # Rerun only when asked: importing it costs the table half a second.
@@ -158,7 +161,7 @@ def structural_fold_table(panel, steps, mesh=None, rrd_path=None):
         from flectofold_ros.rerun.structure_scene import save_structural_path
         rrd_path = check_rrd_path(rrd_path)
     hexagon = isinstance(panel, HexagonPanel)
-    default = STRUCTURAL_MESHES['default'][hexagon]
+    default = STRUCTURAL_MESHES['default' if hexagon else 'converged'][hexagon]
     mesh = default if mesh is None else mesh
     actuated = actuated_preset(panel)
 
@@ -218,9 +221,10 @@ def structural_fold_table(panel, steps, mesh=None, rrd_path=None):
     else:
         lines.append(f'the path ended at {reached:.1f} deg apex fold: {path.ended}')
     if mesh.columns < default.columns or mesh.hinge_rows < default.hinge_rows:
-        lines.append('a mesh coarser than the default: its pressure maxima and strains are not '
-                     'converged, and too few hinge rows make pressure maxima that finer meshes '
-                     'do not have (msg_docs/structure.md)')
+        lines.append(f'a mesh coarser than the {"default" if hexagon else "converged"} one: '
+                     'its pressures, pressure maxima and strains are not converged, and too few '
+                     'hinge rows make pressure maxima that finer meshes do not have '
+                     '(msg_docs/structure.md)')
     allowable = actuated.hinge.allowable_strain
     worst = float(np.max(path.peak_strain['hinge']))
     lines.append(f'peak hinge strain on the path {worst * 100:.2f} % against an allowable '
@@ -256,8 +260,10 @@ def _structural_heading(panel, mesh, path):
     return (f'structural model: panel {panel.length_m:g} m x {panel.width_m:g} m, fold radius '
             f'{panel.fold_radius_m:g} m, hinge {panel.hinge_width_m * 1e3:.0f} mm; mesh '
             f'{count} ({mesh.columns} columns, rows {mesh.midrib_rows} mid-rib / '
-            f'{mesh.hinge_rows} hinge / {mesh.flap_rows} flap per side), '
-            f'{len(path.pressure_pa) - 1} equilibria')
+            f'{mesh.hinge_rows} hinge / {mesh.flap_rows} flap per side'
+            + (f', flap rows {mesh.flap_growth:g} x wider at the edge than by the hinge'
+               if mesh.flap_growth != 1.0 else '')
+            + f'), {len(path.pressure_pa) - 1} equilibria')
 
 
 def hexagon_fold_table(panel, steps):
@@ -348,13 +354,16 @@ def main(args=None):
     parser.add_argument('--model', choices=('kinematic', 'structural'), default='kinematic',
                         help='kinematic: the reflection model (default); structural: the '
                              'equilibrium path of the GFRP sheet under the cushion beside the '
-                             'reflection model (minutes, see --mesh)')
-    parser.add_argument('--mesh', choices=('coarse', 'default', 'fine'), default='default',
-                        help='structural mesh: coarse (quad 40 columns, hexagon 24 rays per '
-                             'sector, 2 hinge rows: seconds to a minute, not converged), '
-                             'default (80 columns / 48 rays, 4 hinge rows: about 3 minutes, '
-                             'the hexagon 13), fine (160 columns / 96 rays, 8 hinge rows: '
-                             'tens of minutes)')
+                             'reflection model (seconds to minutes, see --mesh)')
+    parser.add_argument('--mesh', choices=tuple(STRUCTURAL_MESHES),
+                        help='structural mesh: converged (quad panels, the default for them: '
+                             '160 columns, 8 hinge rows, graded flap rows; tip travel within '
+                             '1 %% of the fine mesh at every air, about 15 s), default (80 '
+                             'columns / 48 rays, 4 hinge rows: seconds, the hexagon about half '
+                             'a minute, and the default for it; the quad pressures up to 14 %% '
+                             'low), coarse (40 columns / 24 rays, 2 hinge rows: not converged), '
+                             'fine (quad: 320 columns, 16 graded flap rows, about a minute; '
+                             'hexagon: 96 rays, 8 hinge rows, minutes)')
     parser.add_argument('--rrd', metavar='OUT.rrd',
                         help='with --model structural: also write the path to a Rerun '
                              'recording, the sheet at every equilibrium coloured by its '
@@ -366,7 +375,12 @@ def main(args=None):
         parser.error('--rrd needs --model structural')
     panel = PANELS[options.panel]
     if options.model == 'structural':
-        mesh = STRUCTURAL_MESHES[options.mesh][isinstance(panel, HexagonPanel)]
+        hexagon = isinstance(panel, HexagonPanel)
+        chosen = options.mesh or ('default' if hexagon else 'converged')
+        mesh = STRUCTURAL_MESHES[chosen][hexagon]
+        if mesh is None:
+            parser.error(f'--mesh {chosen} is for quad panels: no hexagon mesh is shown '
+                         'converged (msg_docs/structure.md); --mesh fine is the finest')
         return run_command('fold_table', lambda stop: print(
             '\n'.join(structural_fold_table(panel, options.steps, mesh, options.rrd))),
             interrupted_code=130)

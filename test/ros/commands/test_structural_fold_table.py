@@ -9,7 +9,7 @@ import numpy as np
 from flectofold_model import DEMONSTRATOR_MODULE, FoldModel, PanelBatch
 from flectofold_model.kinematics.hexagon_panel import HEXAGON_MODULE
 from flectofold_model.structure.hexagon import HexagonMesh
-from flectofold_model.structure.panel import PanelMesh
+from flectofold_model.structure.panel import CONVERGED_MESH, PanelMesh
 from flectofold_ros.commands import fold_table
 
 #: One hinge row: the quickest mesh that reaches the closed fold (about 6 s), for the format.
@@ -40,7 +40,7 @@ def test_the_structural_table_prints_both_models_at_each_closure():
     assert len(wind) == 1 and ' N/m per flap; valves shut (air held): ' in wind[0]
     rise = re.search(r'the cushion pressure up (\d+) Pa$', wind[0])
     assert rise is not None and int(rise.group(1)) > 0
-    assert any(line.startswith('a mesh coarser than the default') for line in lines[7:])
+    assert any(line.startswith('a mesh coarser than the converged one') for line in lines[7:])
     assert lines[-1].startswith('peak hinge strain on the path ')
     assert 'against an allowable 0.7 %' in lines[-1]
 
@@ -87,6 +87,42 @@ def test_the_hexagon_takes_the_structural_model_on_the_command_line(capsys, monk
     assert seen == {'panel': HEXAGON_MODULE, 'steps': 3, 'mesh': HexagonMesh(24, 6, 2, 3),
                     'rrd_path': None}
     assert capsys.readouterr().out == 'table\n'
+
+
+def test_the_converged_mesh_is_a_quad_panels_default_and_refused_for_the_hexagon(
+        capsys, monkeypatch):
+    seen = {}
+
+    def table(panel, steps, mesh, rrd_path):
+        seen.update(mesh=mesh)
+        return ['table']
+
+    monkeypatch.setattr(fold_table, 'structural_fold_table', table)
+    assert fold_table.main(['fold_table', '--model', 'structural', '--mesh', 'converged']) == 0
+    assert seen == {'mesh': CONVERGED_MESH}
+    # Without --mesh: the converged mesh for a quad panel, the default one for the hexagon.
+    assert fold_table.main(['fold_table', '--model', 'structural']) == 0
+    assert seen == {'mesh': CONVERGED_MESH}
+    assert fold_table.main(['fold_table', '--panel', 'hexagon', '--model', 'structural']) == 0
+    assert seen == {'mesh': HexagonMesh()}
+    seen.clear()
+    try:
+        fold_table.main(['fold_table', '--panel', 'hexagon', '--model', 'structural',
+                         '--mesh', 'converged'])
+    except SystemExit as stop:
+        assert stop.code == 2
+    else:
+        raise AssertionError('the hexagon was not refused')
+    assert seen == {}
+    assert ('--mesh converged is for quad panels: no hexagon mesh is shown converged'
+            in capsys.readouterr().err)
+
+
+def test_a_graded_mesh_is_named_in_the_heading():
+    graded = replace(QUICK, flap_growth=4.0)
+    lines = fold_table.structural_fold_table(DEMONSTRATOR_MODULE, 2, graded)
+    assert 'rows 2 mid-rib / 1 hinge / 2 flap per side, flap rows 4 x wider at the edge than ' \
+        'by the hinge)' in lines[0]
 
 
 def test_help_names_the_structural_columns(capsys):
