@@ -1,17 +1,23 @@
 """Structural model of the panels: presets against the reflection model, mesh, CPU.
 
-Run with ``.venv/bin/python bench/bench_structure.py [--meshes] [--presets NAME ...]
-[--hexagon [--prefold DEG]] [--trends] [--cushion-map]``.
+Run with ``.venv/bin/python bench/bench_structure.py [--meshes] [--presets NAME ...
+[--mesh converged]] [--converged [NAME ...]] [--hexagon [--prefold DEG]] [--trends]
+[--cushion-map]``.
 Everything printed is computed here; CPU is process time of this process.
 
-* ``--presets``: each preset's structural path on the default mesh beside the reflection model
-  (pressure, air, tip travel, hinge strain at closures 0.25 ... 1), where it ends, its pressure
-  maximum, and its CPU time against the reflection model's table of the same closures.
+* ``--presets``: each preset's structural path on the default mesh (``--mesh converged``: on
+  :data:`CONVERGED_MESH`) beside the reflection model (pressure, air, tip travel, hinge
+  strain at closures 0.25 ... 1), where it ends, its pressure maximum, and its CPU time
+  against the reflection model's table of the same closures.
 * ``--meshes``: the demonstrator on the meshes 20 / 40 / 80 columns, every count scaled alike
   (with ``--finest`` also 120 and 160); pressure and tip travel at fixed apex folds and the
   change per refinement; then at fixed air and at fixed apex fold on the last three meshes,
   the observed order of convergence and Richardson's estimate of the limit, and each mesh's
   distance from it.
+* ``--converged [NAME ...]``: each preset (default all) on :data:`REFERENCE_MESH`, on
+  :data:`CONVERGED_MESH` and on the default mesh; the largest distance of tip travel and of
+  pressure from the reference's at the same air, over 5-97 % of the reference's air to close,
+  and each path's CPU and equilibria (the reference takes about a minute per preset).
 * ``--trends``: the demonstrator's apex fold at a set pressure as hinge width, hinge modulus
   and flap modulus change one at a time (the trends Muehlich et al., Biomimetics 6(3):43,
   2021, state for elastomer-GFRP hinges: the fold rises as material stiffness falls and as
@@ -41,7 +47,8 @@ from flectofold_model.actuation import (ActuationModel, DEMONSTRATOR_ACTUATED,
 from flectofold_model.actuation.statics import actuated_like
 from flectofold_model.structure.comparison import kinematic_rows, structural_rows
 from flectofold_model.structure.hexagon import hexagon_structural_path, HexagonMesh
-from flectofold_model.structure.panel import PanelMesh, structural_path
+from flectofold_model.structure.panel import (CONVERGED_MESH, PanelMesh, REFERENCE_MESH,
+                                              structural_path)
 
 CLOSURES = np.array([0.25, 0.5, 0.75, 1.0])
 
@@ -210,6 +217,39 @@ def at_fixed(paths, along):
                   f'it by {offs}', flush=True)
 
 
+def converged(names):
+    """Tip travel and pressure of the converged and default meshes against the reference's."""
+    chosen = presets()
+    meshes = (('reference', REFERENCE_MESH), ('converged', CONVERGED_MESH),
+              ('default', PanelMesh()))
+    print('== meshes against the reference at the same air, 5-97 % of its air to close: '
+          + '; '.join(f'{label} {m.columns} columns, rows {m.midrib_rows} / {m.hinge_rows} / '
+                      f'{m.flap_rows} (mid-rib / hinge / flap), flap growth {m.flap_growth:g}'
+                      for label, m in meshes) + ' ==')
+    for name in names or chosen:
+        paths = {}
+        for label, mesh in meshes:
+            path, cpu = cpu_of(lambda: structural_path(chosen[name], mesh))
+            paths[label] = path
+            line = (f'{name}, {label}: {path.node_count} nodes, {len(path.pressure_pa) - 1} '
+                    f'equilibria, {cpu:.1f} s CPU, ended {path.ended[:48]}, air to end '
+                    f'{(path.air_m3[-1] - path.air_m3[0]) * 1e3:.2f} L')
+            if label != 'reference':
+                reference = paths['reference']
+                span = reference.air_m3[-1] - reference.air_m3[0]
+                airs = reference.air_m3[0] + np.linspace(0.05, 0.97, 185) * span
+                if path.air_m3[-1] < airs[-1]:
+                    print(line + '; ends short of the reference', flush=True)
+                    continue
+                for key, word in (('tip_travel_m', 'tip travel'), ('pressure_pa', 'pressure')):
+                    off = (np.interp(airs, path.air_m3, getattr(path, key))
+                           / np.interp(airs, reference.air_m3, getattr(reference, key)) - 1.0)
+                    worst = int(np.argmax(np.abs(off)))
+                    line += (f'; {word} at most {off[worst] * 100:+.2f} % off (at '
+                             f'{(airs[worst] - reference.air_m3[0]) * 1e3:.2f} L)')
+            print(line, flush=True)
+
+
 def trends(pressure_pa=1500.0):
     base = DEMONSTRATOR_ACTUATED
     geometry = base.geometry
@@ -351,16 +391,22 @@ def main():
                         help='with --meshes, also 120 and 160 columns (6 and 8 hinge rows; '
                         'minutes)')
     parser.add_argument('--presets', nargs='*')
+    parser.add_argument('--mesh', choices=('default', 'converged'), default='default',
+                        help='with --presets, the mesh the paths are traced on')
     parser.add_argument('--hexagon', action='store_true')
     parser.add_argument('--prefold', type=float, metavar='DEG',
                         help="with --hexagon, the module's moulded pre-fold (preset: 5 deg)")
+    parser.add_argument('--converged', nargs='*', metavar='NAME')
     parser.add_argument('--trends', action='store_true')
     parser.add_argument('--cushion-map', action='store_true')
     options = parser.parse_args()
     if options.presets is not None:
         chosen = presets()
         for name in options.presets or chosen:
-            compare(name, chosen[name], PanelMesh())
+            compare(name, chosen[name],
+                    CONVERGED_MESH if options.mesh == 'converged' else PanelMesh())
+    if options.converged is not None:
+        converged(options.converged)
     if options.meshes:
         meshes((1, 2, 4, 6, 8) if options.finest else (1, 2, 4))
     if options.trends:
