@@ -349,9 +349,13 @@ def checker_triangles(grid: IntArray) -> tuple[IntArray, IntArray]:
     return np.concatenate([first, second]), np.concatenate([j, j])
 
 
-def mould_prefold(panel_sheet: MeshedPanel,
-                  prefold_rad: float) -> tuple[Sheet, FloatArray, float]:
+def mould_prefold(panel_sheet: MeshedPanel, prefold_rad: float,
+                  like: 'SheetSystem | MirroredSystem | None' = None
+                  ) -> tuple[Sheet, FloatArray, float]:
     """Give the hinge bands the moulded pre-fold and return the sheet and its rest unknowns.
+
+    ``like``: a system of the panel (:func:`equilibrium_system`) whose store of tangent
+    layouts the mould's systems share.
 
     Returns
     -------
@@ -393,7 +397,7 @@ def mould_prefold(panel_sheet: MeshedPanel,
     for attempt in range(MOULD_STEPS + MOULD_ATTEMPTS):
         scale = scales[attempt] if attempt < MOULD_STEPS else scale * prefold_rad / achieved
         folded = replace(sheet, rest_tilt_sine=np.clip(scale * rest, -1.0, 1.0))
-        system = equilibrium_system(panel_sheet, folded)
+        system = equilibrium_system(panel_sheet, folded, like=like)
         guess = shapes[-1][1]
         if len(shapes) > 1:
             (before, older), (last, newer) = shapes[-2:]
@@ -685,10 +689,12 @@ def _trace_panel_path(panel_sheet: MeshedPanel, prefold_rad: float, target_fold_
                       progress: Optional[Progress]) -> StructuralPath:
     from flectofold_model.structure.sheet import trace_path
 
-    sheet, start, moulding_energy = mould_prefold(panel_sheet, prefold_rad)
+    # A system of the flat sheet first: the mould's and the path's share its layouts.
+    system = equilibrium_system(panel_sheet, panel_sheet.sheet)
+    sheet, start, moulding_energy = mould_prefold(panel_sheet, prefold_rad, like=system)
+    system = equilibrium_system(panel_sheet, sheet, like=system)
     ended = ['closed']
     air_limit = AIR_LIMIT_FACTOR * air_estimate_m3
-    system = equilibrium_system(panel_sheet, sheet)
     try:
         def reached(point: PathPoint) -> bool:
             fold = apex_fold_angle_rad(panel_sheet, point.positions_m)
@@ -774,18 +780,24 @@ def wind_on_flaps(panel_sheet: 'PanelSheet', sheet: Sheet, system: 'SheetSystem 
                        float(volume_gradient @ held_change))
 
 
-def equilibrium_system(panel_sheet: MeshedPanel,
-                       sheet: Sheet) -> 'SheetSystem | MirroredSystem':
+def equilibrium_system(panel_sheet: MeshedPanel, sheet: Sheet,
+                       like: 'SheetSystem | MirroredSystem | None' = None
+                       ) -> 'SheetSystem | MirroredSystem':
     """Return the equations to solve a panel's sheet with: its symmetry cell's if it has one.
 
     A panel with mirrors is traced on its even unknowns, its stability read from every
     symmetry class (:mod:`.symmetry`): the quad on a quarter (two mirrors, four classes), the
-    hexagon on a half (one mirror, two classes).
+    hexagon on a half (one mirror, two classes). ``like``: a system of the same panel in
+    another rest state, whose tangent layouts are shared where they are the same
+    (:meth:`~.symmetry.MirroredSystem.adopt_layouts`).
     """
     if not panel_sheet.mirrors:
         return SheetSystem(sheet)
     from flectofold_model.structure.symmetry import MirroredSystem
-    return MirroredSystem(sheet, panel_sheet.mirrors)
+    system = MirroredSystem(sheet, panel_sheet.mirrors)
+    if isinstance(like, MirroredSystem):
+        system.adopt_layouts(like)
+    return system
 
 
 def _path_from_points(panel_sheet: MeshedPanel, sheet: Sheet, points: list[PathPoint],

@@ -272,6 +272,24 @@ class MirroredSystem:
             blocks.append(csc_matrix((data, indices, indptr), shape=(size, size)))
         return blocks
 
+    def adopt_layouts(self, other: 'MirroredSystem') -> bool:
+        """Share ``other``'s class layouts if they are this system's; return whether shared.
+
+        A layout (:meth:`_block_layout`) depends on the cell's element entries and the class
+        bases alone, which a sheet of the same mesh, mirrors and supports in another rest
+        state (a moulded one) has too: where both are equal, the two systems keep their
+        layouts in one store from then on, each made once for both.
+        """
+        same = (np.array_equal(self.cell.entry_rows, other.cell.entry_rows)
+                and np.array_equal(self.cell.entry_cols, other.cell.entry_cols)
+                and self.order == other.order and len(self.blocks) == len(other.blocks)
+                and all(mine.shape == theirs.shape and (mine != theirs).nnz == 0
+                        for mine, theirs in zip(self.blocks, other.blocks)))
+        if same:
+            other._layouts.update(self._layouts)
+            self._layouts = other._layouts
+        return same
+
     def _block_layout(self, index: int) -> tuple[IntArray, FloatArray,
                                                  tuple[IntArray, IntArray, IntArray]]:
         """Return a class's cell entries, their weights and its CSC layout (made once)."""

@@ -32,7 +32,7 @@ def moulded(panel_sheet):
 
 def _whole_sheet_only(monkeypatch):
     monkeypatch.setattr(panel_module, 'equilibrium_system',
-                        lambda panel_sheet, sheet: SheetSystem(sheet))
+                        lambda panel_sheet, sheet, like=None: SheetSystem(sheet))
 
 
 def _energy_of_all_unknowns(system, unknowns):
@@ -178,3 +178,21 @@ def test_a_sheet_that_is_not_its_mirror_image_is_refused(panel_sheet):
         MirroredSystem(replace(sheet, fixed=fixed), panel_sheet.mirrors)
     with pytest.raises(ValueError, match='at least one mirror'):
         MirroredSystem(sheet, [])
+
+
+def test_systems_of_one_mesh_in_other_rest_states_share_their_layouts_and_their_tangents(
+        panel_sheet, moulded):
+    flat = MirroredSystem(panel_sheet.sheet, panel_sheet.mirrors)
+    values = flat.restrict_sheet(moulded[1])
+    fresh = MirroredSystem(moulded[0], panel_sheet.mirrors).tangent_blocks(values, 1500.0)
+    made = flat.tangent_blocks(values, 0.0)  # the flat sheet's layouts made first
+    sharing = MirroredSystem(moulded[0], panel_sheet.mirrors)
+    assert sharing.adopt_layouts(flat)
+    assert sharing._layouts is flat._layouts and len(flat._layouts) == len(made) == 4
+    for mine, theirs in zip(sharing.tangent_blocks(values, 1500.0), fresh):
+        assert (mine != theirs).nnz == 0
+    # Another mesh's layouts are not taken.
+    other = build_panel_sheet(DEMONSTRATOR_ACTUATED, PanelMesh(20, 2, 1, 2))
+    stranger = MirroredSystem(other.sheet, other.mirrors)
+    assert not stranger.adopt_layouts(flat)
+    assert stranger._layouts is not flat._layouts and not stranger._layouts
