@@ -3,18 +3,17 @@
 A panel process killed with SIGKILL during the day is noticed, logged, reported on
 ``/diagnostics``, restarted after its back-off; its panels report again and track; the
 summary lists the death and the restart. With no restarts allowed the panels are lost for
-good and the bringup exits 3.
+good and the bringup exits 3. Hung panel processes: `test_supervision_hangs.py`.
 """
 
 import subprocess
 import time
 
-from bringup_day import (begin_day, end_day, panel_processes_of, start_day,
+from bringup_day import (end_day, panel_processes_of, start_day,
                          supervised_facade_file)
 import pytest
 from ros_graph import domain_for, Graph, PROMPT_S, START_S
 
-from flectofold_ros.bringup.cli import HUNG_S
 from flectofold_ros.runtime.interfaces import subscription
 from flectofold_ros.wire import contract
 
@@ -101,45 +100,3 @@ def test_a_killed_recorder_is_restarted_into_a_new_bag_and_the_summary_says_so(
     assert (run / 'bag.restart1' / 'metadata.yaml').exists()
     assert f'bag {run / "bag"}: INCOMPLETE' in text and 'bag_reindex' in text, text
     assert f'bag {run / "bag.restart1"}: complete' in text, text
-
-
-def test_a_hung_panel_process_is_killed_and_restarted(small_facade_file):
-    """SIGSTOP: alive but silent. Its /diagnostics stop; after 15 s it is killed, restarted."""
-    graph = Graph(domain_for(56))
-    try:
-        bringup, output = start_day(graph, small_facade_file, '11:40', '--panel-processes', '2')
-        victim = panel_processes_of(bringup.pid)[0]
-        subprocess.run(['kill', '-STOP', str(victim)], check=True)
-        stopped = time.monotonic()
-        hung = output.wait_for(graph, 'hung (silent for 15 s), killed', 60)
-        assert hung and f'(pid {victim})' in hung, output.text
-        assert time.monotonic() - stopped >= HUNG_S - 2.0  # its last report came up to 1 s before
-        assert output.wait_for(graph, 'restarted (pid', START_S), output.text
-        end_day(graph, bringup, output, 60)
-    finally:
-        graph.close()
-    text = output.text
-    assert bringup.returncode == 0, text
-    assert 'panels reporting: 4/4' in text and '1 deaths, 1 restarts' in text, text
-    assert 'panel_group 0/2 died at 11:' in text and 'hung (silent for 15 s), killed' in text
-
-
-def test_a_panel_process_that_hangs_before_its_first_report_is_killed_and_restarted(
-        small_facade_file):
-    """SIGSTOP at its start: never silent, as it never spoke; 60 s after its start it is hung."""
-    graph = Graph(domain_for(57))
-    try:
-        bringup, output = begin_day(graph, small_facade_file, '11:20', '--panel-processes', '2')
-        assert graph.spin_until(lambda: panel_processes_of(bringup.pid), 60.0), output.text
-        victim = panel_processes_of(bringup.pid)[0]
-        subprocess.run(['kill', '-STOP', str(victim)], check=True)
-        assert output.wait_for(graph, 'starting the day anyway', 120), output.text
-        hung = output.wait_for(graph, 'hung (no report 60 s after its start), killed', 60)
-        assert hung and f'(pid {victim})' in hung, output.text
-        assert output.wait_for(graph, 'restarted (pid', START_S), output.text
-        end_day(graph, bringup, output, 60)
-    finally:
-        graph.close()
-    text = output.text
-    assert bringup.returncode == 0, text
-    assert 'panels reporting: 4/4' in text and '1 deaths, 1 restarts' in text, text
