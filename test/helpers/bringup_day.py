@@ -73,3 +73,9 @@ def end_day(graph, bringup, output, exit_timeout_s):
     assert output.wait_for(graph, 'day finished', 240), output.text
     bringup.wait(timeout=exit_timeout_s)
     output.rest(graph)
+
+
+def finish(graph, process, timeout_s):
+    """Wait (spinning the probe) for ``process`` to end; return its exit code."""
+    graph.spin_until(lambda: process.poll() is not None, timeout_s)
+    return process.poll()
