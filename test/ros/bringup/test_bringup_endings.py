@@ -10,7 +10,7 @@ import signal
 import subprocess
 import time
 
-from bringup_day import end_day, start_day, supervised_facade_file
+from bringup_day import end_day, start_day
 from process_state import running
 import pytest
 from ros_graph import domain_for, Graph
@@ -18,11 +18,6 @@ from rosbags.rosbag2 import Reader
 import yaml
 
 pytestmark = pytest.mark.graph
-
-
-@pytest.fixture()
-def small_facade_file(small_facade_text, tmp_path):
-    return supervised_facade_file(small_facade_text, tmp_path)
 
 
 def test_a_bringup_killed_with_sigkill_leaves_no_child_running_and_a_complete_bag(

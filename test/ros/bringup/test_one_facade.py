@@ -10,7 +10,7 @@ import signal
 import socket
 import time
 
-from bringup_day import finish, start_day, supervised_facade_file
+from bringup_day import finish, start_day
 import pytest
 from ros_graph import domain_for, Graph
 from rosgraph_msgs.msg import Clock
@@ -19,11 +19,6 @@ from flectofold_ros.runtime.interfaces import publisher
 from flectofold_ros.wire import contract
 
 pytestmark = pytest.mark.graph
-
-
-@pytest.fixture()
-def small_facade_file(small_facade_text, tmp_path):
-    return supervised_facade_file(small_facade_text, tmp_path)
 
 
 def test_a_second_facade_coordinator_or_panel_process_is_refused_naming_the_first(

@@ -8,7 +8,7 @@ files' days side by side.
 
 import socket
 
-from bringup_day import finish, start_day, supervised_facade_file
+from bringup_day import finish, start_day
 import pytest
 from ros_graph import domain_for, Graph
 from sensor_msgs.msg import JointState
@@ -17,11 +17,6 @@ from flectofold_ros.runtime.interfaces import client, message_class, publisher, 
 from flectofold_ros.wire import contract
 
 pytestmark = pytest.mark.graph
-
-
-@pytest.fixture()
-def small_facade_file(small_facade_text, tmp_path):
-    return supervised_facade_file(small_facade_text, tmp_path)
 
 
 def test_setpoints_beside_the_coordinators_are_refused_and_senders_of_resets_are_logged(

@@ -9,8 +9,7 @@ good and the bringup exits 3. Hung panel processes: `test_supervision_hangs.py`.
 import subprocess
 import time
 
-from bringup_day import (end_day, panel_processes_of, start_day,
-                         supervised_facade_file)
+from bringup_day import end_day, panel_processes_of, start_day
 import pytest
 from ros_graph import domain_for, Graph, PROMPT_S, START_S
 
@@ -18,11 +17,6 @@ from flectofold_ros.runtime.interfaces import subscription
 from flectofold_ros.wire import contract
 
 pytestmark = pytest.mark.graph
-
-
-@pytest.fixture()
-def small_facade_file(small_facade_text, tmp_path):
-    return supervised_facade_file(small_facade_text, tmp_path)
 
 
 def test_a_killed_panel_process_is_restarted_and_its_panels_track_again(small_facade_file):

@@ -9,18 +9,13 @@ bringup days run side by side under ``--dist loadfile``.
 import subprocess
 import time
 
-from bringup_day import begin_day, end_day, panel_processes_of, start_day, supervised_facade_file
+from bringup_day import begin_day, end_day, panel_processes_of, start_day
 import pytest
 from ros_graph import domain_for, Graph, START_S
 
 from flectofold_ros.bringup.cli import HUNG_S
 
 pytestmark = pytest.mark.graph
-
-
-@pytest.fixture()
-def small_facade_file(small_facade_text, tmp_path):
-    return supervised_facade_file(small_facade_text, tmp_path)
 
 
 def test_a_hung_panel_process_is_killed_and_restarted(small_facade_file):
