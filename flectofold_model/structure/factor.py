@@ -155,20 +155,17 @@ def symmetric_factor(matrix: csc_matrix) -> tuple['CholeskyFactor | SuperLU', Op
 def positive_definite(matrix: csc_matrix) -> 'CholeskyFactor | SuperLU | None':
     """Return a factor of a symmetric ``matrix`` if it is positive definite, else None.
 
-    Cholesky's success (:func:`cholesky`), or else SuperLU's symmetric mode with every pivot
-    above zero (:func:`lu_pivots`).
+    :func:`symmetric_factor` with no negative eigenvalue counted: Cholesky's success, or
+    SuperLU's symmetric mode with every pivot above zero (a zero pivot is exactly singular,
+    which SuperLU raises).
 
     Raises
     ------
     RuntimeError
         Where SuperLU finds the matrix exactly singular.
     """
-    found = cholesky(matrix)
-    if found is not None:
-        return found
-    factor = symmetric_lu(matrix)
-    pivots = lu_pivots(factor)
-    return factor if pivots is not None and np.all(pivots > 0.0) else None
+    factor, negatives = symmetric_factor(matrix)
+    return factor if negatives == 0 else None
 
 
 def symmetric_lu(matrix: csc_matrix) -> SuperLU:

@@ -145,6 +145,9 @@ STRUCTURAL_MESHES = {
     # Shown converged for quad panels only (msg_docs/structure.md); no hexagon mesh is.
     'converged': (CONVERGED_MESH, None),
 }
+#: The name in :data:`STRUCTURAL_MESHES` of each kind's mesh when none is asked for: quad,
+#: hexagon.
+UNASKED_MESH = ('converged', 'default')
 
 
 def structural_fold_table(panel, steps, mesh=None, rrd_path=None):
@@ -161,7 +164,7 @@ def structural_fold_table(panel, steps, mesh=None, rrd_path=None):
         from flectofold_ros.rerun.structure_scene import save_structural_path
         rrd_path = check_rrd_path(rrd_path)
     hexagon = isinstance(panel, HexagonPanel)
-    default = STRUCTURAL_MESHES['default' if hexagon else 'converged'][hexagon]
+    default = STRUCTURAL_MESHES[UNASKED_MESH[hexagon]][hexagon]
     mesh = default if mesh is None else mesh
     actuated = actuated_preset(panel)
 
@@ -221,7 +224,7 @@ def structural_fold_table(panel, steps, mesh=None, rrd_path=None):
     else:
         lines.append(f'the path ended at {reached:.1f} deg apex fold: {path.ended}')
     if mesh.columns < default.columns or mesh.hinge_rows < default.hinge_rows:
-        lines.append(f'a mesh coarser than the {"default" if hexagon else "converged"} one: '
+        lines.append(f'a mesh coarser than the {UNASKED_MESH[hexagon]} one: '
                      'its pressures, pressure maxima and strains are not converged, and too few '
                      'hinge rows make pressure maxima that finer meshes do not have '
                      '(msg_docs/structure.md)')
@@ -376,7 +379,7 @@ def main(args=None):
     panel = PANELS[options.panel]
     if options.model == 'structural':
         hexagon = isinstance(panel, HexagonPanel)
-        chosen = options.mesh or ('default' if hexagon else 'converged')
+        chosen = options.mesh or UNASKED_MESH[hexagon]
         mesh = STRUCTURAL_MESHES[chosen][hexagon]
         if mesh is None:
             parser.error(f'--mesh {chosen} is for quad panels: no hexagon mesh is shown '
