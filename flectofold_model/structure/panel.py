@@ -45,8 +45,8 @@ from threadpoolctl import threadpool_limits
 
 from flectofold_model._validate import FloatArray, IntArray
 from flectofold_model.actuation.circuit import PlantParameters
-from flectofold_model.structure.sheet import (PathError, PathPoint, Sheet, SheetSystem,
-                                              solve_prescribed)
+from flectofold_model.structure.sheet import (jumped, PathError, PathPoint, Sheet,
+                                              SheetSystem, solve_prescribed)
 
 if TYPE_CHECKING:  # the statics' module loads when used
     from flectofold_model.actuation.statics import ActuatedPanel
@@ -110,9 +110,6 @@ MIDRIB, HINGE, FLAP = 0, 1, 2
 
 #: Attempts and relative tolerance of the moulded apex fold against the pre-fold.
 MOULD_ATTEMPTS, MOULD_TOLERANCE = 6, 0.005
-#: Share of a step's largest possible cushion work by which the stored strain energy may
-#: leave its bounds before the step counts as a jump to another branch [-].
-JUMP_TOLERANCE = 0.01
 
 #: Steps in which the moulded pre-fold is raised from flat.
 MOULD_STEPS = 2
@@ -570,6 +567,9 @@ class StructuralPath:
     """Closest approach of the two flaps at every equilibrium [m]
     (:meth:`PanelSheet.flap_gap_m`; quad panels). Contact between them is not modelled: a
     path ends at the first equilibrium where it is not above 0."""
+    pressure_slope_pa_per_m3: Optional[np.ndarray] = None
+    """``dp/dV`` along the path at every equilibrium [Pa/m3], from its tangent; NaN where
+    unknown."""
 
     @property
     def limit_points(self) -> IntArray:
@@ -616,21 +616,12 @@ class StructuralPath:
 
     @property
     def jumps(self) -> IntArray:
-        """Indices of equilibria the path reached by a jump to another branch.
-
-        Over a step of smoothly changing shape the strain energy stored equals the cushion's
-        work, between the lower and the higher of the step's two pressures times its air.
-        Outside those bounds (by more than :data:`JUMP_TOLERANCE` of the larger) Newton's
-        method has found an equilibrium on another branch: the panel snapped within the
-        step, and the energy difference would go into motion and damping.
-        """
-        air = np.diff(self.air_m3)
+        """Indices of equilibria the path reached by a jump: :func:`~.sheet.jumped`."""
         pressure = np.asarray(self.pressure_pa)
-        least = np.minimum(pressure[:-1], pressure[1:]) * air
-        most = np.maximum(pressure[:-1], pressure[1:]) * air
-        stored = np.diff(self.strain_energy_j)
-        slack = JUMP_TOLERANCE * np.maximum(np.abs(least), np.abs(most))
-        return np.flatnonzero((stored < least - slack) | (stored > most + slack)) + 1
+        slope = self.pressure_slope_pa_per_m3
+        return np.flatnonzero(jumped(
+            np.diff(self.air_m3), pressure[:-1], pressure[1:], np.diff(self.strain_energy_j),
+            None if slope is None else slope[:-1], None if slope is None else slope[1:])) + 1
 
 
 def structural_path(panel: 'ActuatedPanel', mesh: PanelMesh = PanelMesh(),
@@ -843,4 +834,6 @@ def _path_from_points(panel_sheet: MeshedPanel, sheet: Sheet, points: list[PathP
         open_volume_m3=float(points[0].volume_m3),
         zone=np.asarray(sheet.zone),
         flap_gap_m=(np.array([panel_sheet.flap_gap_m(p.positions_m) for p in points])
-                    if isinstance(panel_sheet, PanelSheet) else None))
+                    if isinstance(panel_sheet, PanelSheet) else None),
+        pressure_slope_pa_per_m3=np.array([np.nan if p.pressure_per_m3 is None
+                                           else p.pressure_per_m3 for p in points]))

@@ -29,6 +29,14 @@ from flectofold_model.structure.shell import MidEdgeBending
 
 #: Largest ratio of successive out-of-balance forces for which the factorised tangent is kept.
 REFACTOR_CONTRACTION = 0.2
+#: Share of a step's largest possible cushion work by which the stored strain energy may
+#: leave its bounds before the step counts as a jump to another branch [-] (:func:`jumped`).
+JUMP_TOLERANCE = 0.01
+#: Share of a step's work by the Hermite rule by which the stored strain energy may miss it
+#: before the step counts as a jump [-] (:func:`jumped`): smooth steps of the presets and the
+#: hexagon miss it by at most 2 %, the 1000 mm variant's jump by 40 %
+#: (``msg_docs/structure.md``, "Path following").
+HERMITE_JUMP_TOLERANCE = 0.05
 #: Halvings of a Newton step of :func:`solve_prescribed` that raises the strain energy.
 LINE_SEARCH_HALVINGS = 12
 
@@ -462,6 +470,8 @@ class PathPoint:
     """Negative eigenvalues of the tangent in each symmetry class, the even one first (one
     entry for a sheet solved whole; :class:`~.symmetry.MirroredSystem`); None where
     unknown."""
+    pressure_per_m3: Optional[float] = None
+    """``dp/dV`` along the path here [Pa/m3], from the tangent; None where unknown."""
 
 
 class EquilibriumSystem(Protocol):
@@ -520,7 +530,14 @@ def tangent_inertia(system: 'EquilibriumSystem', values: FloatArray,
 def block_inertia(system: 'EquilibriumSystem', values: FloatArray,
                   pressure: float) -> Optional[tuple[tuple[int, ...], float]]:
     """:func:`tangent_inertia` with the negative eigenvalues of each block apart."""
-    negatives, curvature = [], np.nan
+    found = _block_inertia(system, values, pressure)
+    return None if found is None else found[:2]
+
+
+def _block_inertia(system: 'EquilibriumSystem', values: FloatArray, pressure: float
+                   ) -> Optional[tuple[tuple[int, ...], float, FloatArray]]:
+    """:func:`block_inertia` and ``(H - p H_V)^-1 g_V`` of the first block."""
+    negatives, curvature, load_step = [], np.nan, np.empty(0)
     for index, matrix in enumerate(system.tangent_blocks(values, pressure)):
         if matrix.shape[0] == 0:
             negatives.append(0)
@@ -534,26 +551,44 @@ def block_inertia(system: 'EquilibriumSystem', values: FloatArray,
         negatives.append(count)
         if index == 0:
             _, volume_gradient = system.gradients(values)
-            curvature = float(volume_gradient @ factor.solve(volume_gradient))
+            load_step = factor.solve(volume_gradient)
+            curvature = float(volume_gradient @ load_step)
     if not np.isfinite(curvature):
         return None
-    return tuple(negatives), curvature
+    return tuple(negatives), curvature, load_step
 
 
 def _stability(system: 'EquilibriumSystem', values: FloatArray, pressure: float
-               ) -> tuple[Optional[bool], Optional[bool], Optional[tuple[int, ...]]]:
-    """``(stable_at_pressure, stable_at_volume, negatives per block)`` from the tangent.
+               ) -> tuple[tuple[Optional[bool], Optional[bool], Optional[tuple[int, ...]]],
+                          Optional['_Direction']]:
+    """Return the stability from the tangent and the path's direction there.
 
-    With the volume held, the bordered tangent has one negative eigenvalue from the constraint
-    plus ``neg(H) - 1`` when ``g_V^T H^-1 g_V < 0`` (Haynsworth), so it is stable when
-    ``neg(H) + [g_V^T H^-1 g_V > 0] == 1``; with the pressure held, when ``neg(H) == 0``.
+    The stability is ``(stable_at_pressure, stable_at_volume, negatives per block)``, the
+    direction None where it is not known. With the volume held, the bordered tangent has one
+    negative eigenvalue from the constraint plus ``neg(H) - 1`` when ``g_V^T H^-1 g_V < 0``
+    (Haynsworth), so it is stable when ``neg(H) + [g_V^T H^-1 g_V > 0] == 1``; with the
+    pressure held, when ``neg(H) == 0``. Along the path ``H du = g_V dp`` and
+    ``g_V . du = dV``: ``dp/dV = 1 / g_V^T H^-1 g_V``.
     """
-    inertia = block_inertia(system, values, pressure)
+    inertia = _block_inertia(system, values, pressure)
     if inertia is None:
-        return None, None, None
-    negatives, curvature = inertia
+        return (None, None, None), None
+    negatives, curvature, load_step = inertia
     negative = sum(negatives)
-    return negative == 0, negative + int(curvature > 0.0) == 1, negatives
+    direction = None
+    if curvature != 0.0 and np.all(np.isfinite(load_step)):
+        direction = _Direction(load_step / curvature, 1.0 / curvature)
+    return (negative == 0, negative + int(curvature > 0.0) == 1, negatives), direction
+
+
+@dataclass(frozen=True)
+class _Direction:
+    """The path's direction at an equilibrium."""
+
+    values_per_m3: FloatArray
+    """``du/dV`` of the system's unknowns."""
+    pressure_per_m3: float
+    """``dp/dV`` [Pa/m3]."""
 
 
 class PathError(RuntimeError):
@@ -571,6 +606,12 @@ def trace_path(sheet: Sheet, volume_step_m3: float, stop: Callable[[PathPoint], 
                start: Optional[npt.ArrayLike] = None,
                system: Optional['EquilibriumSystem'] = None) -> list[PathPoint]:
     """Follow the sheet's equilibrium from flat under rising cushion volume.
+
+    Each step starts Newton's method along the path's tangent at the last equilibrium (from
+    the factor its stability is read with), and if that fails along the line through the
+    last two; from an equilibrium that is stable with the air held, a step whose energy
+    balance says it jumped to another branch (:func:`jumped`) is refused and made shorter,
+    down to the smallest: there the path is let jump, as the panel would.
 
     Parameters
     ----------
@@ -607,21 +648,36 @@ def trace_path(sheet: Sheet, volume_step_m3: float, stop: Callable[[PathPoint], 
     positions = system.positions(values)
     volume = system.volume_m3(values)
     membrane, bending = system.energies_j(values)
+    stability, direction = _stability(system, values, 0.0)
     points = [PathPoint(0.0, volume, positions, membrane, bending, 0, 0.0,
-                        system.sheet_unknowns(values), *_stability(system, values, 0.0))]
+                        system.sheet_unknowns(values), *stability,
+                        None if direction is None else direction.pressure_per_m3)]
     pressure = 0.0
     step = volume_step_m3
     previous = None
     while len(points) <= max_steps:
         target = volume + step
-        guess_values, guess_pressure = values, pressure
-        if previous is not None:
-            # Extrapolate along the last step, scaled to this one.
-            ratio = step / previous[2]
-            guess_values = values + ratio * (values - previous[0])
-            guess_pressure = pressure + ratio * (pressure - previous[1])
-        result = _newton(system, guess_values, guess_pressure, target, tolerance,
-                         max_iterations, step)
+        smallest = step / 2.0 < volume_step_m3 * min_step_fraction
+        stable = points[-1].stable_at_volume is True
+        result, found = None, ((None, None, None), None)
+        for guess_values, guess_pressure in _predictions(values, pressure, step, direction,
+                                                         previous):
+            result = _newton(system, guess_values, guess_pressure, target, tolerance,
+                             max_iterations, step)
+            if result is None:
+                continue
+            found = _stability(system, result[0], result[1])
+            if (stable and not smallest and jumped(
+                    step, pressure, result[1], sum(system.energies_j(result[0]))
+                    - points[-1].membrane_energy_j - points[-1].bending_energy_j,
+                    points[-1].pressure_per_m3,
+                    None if found[1] is None else found[1].pressure_per_m3)):
+                # From an equilibrium that is stable with the air held the path goes on
+                # smoothly: Newton found another branch. Down to the smallest step (where
+                # the path is let jump: StructuralPath.jumps reports it) a shorter one.
+                result = None
+                continue
+            break
         if result is None:
             step /= 2.0
             if step < volume_step_m3 * min_step_fraction:
@@ -634,14 +690,70 @@ def trace_path(sheet: Sheet, volume_step_m3: float, stop: Callable[[PathPoint], 
         values, pressure, volume = new_values, new_pressure, target
         positions = system.positions(values)
         membrane, bending = system.energies_j(values)
+        stability, direction = found
         point = PathPoint(pressure, volume, positions, membrane, bending, iterations, residual,
-                          system.sheet_unknowns(values), *_stability(system, values, pressure))
+                          system.sheet_unknowns(values), *stability,
+                          None if direction is None else direction.pressure_per_m3)
         points.append(point)
         if stop(point):
             break
         if iterations <= 8 and step < volume_step_m3:
             step = min(2.0 * step, volume_step_m3)
     return points
+
+
+def jumped(air_m3: npt.ArrayLike, pressure_before_pa: npt.ArrayLike,
+           pressure_after_pa: npt.ArrayLike, stored_j: npt.ArrayLike,
+           slope_before_pa_per_m3: 'npt.ArrayLike | None' = None,
+           slope_after_pa_per_m3: 'npt.ArrayLike | None' = None) -> np.ndarray:
+    """Whether steps of a path under rising volume ended on another branch (a jump).
+
+    Over a step of smoothly changing shape the strain energy stored equals the cushion's
+    work ``W``, between the lower and the higher of the step's two pressures times its air.
+    Outside those bounds (by more than :data:`JUMP_TOLERANCE` of the larger) Newton's method
+    has found an equilibrium on another branch: the panel snapped within the step, and the
+    energy difference would go into motion and damping. Where the path's ``dp/dV`` is known
+    at both ends (finite), the work is also known closely, by the Hermite rule
+    ``W = h (p0 + p1) / 2 + h^2 (p0' - p1') / 12`` (error of order ``h^5``), and a step whose
+    stored energy misses it by more than :data:`HERMITE_JUMP_TOLERANCE` of it jumped too.
+    """
+    air = np.asarray(air_m3, dtype=np.float64)
+    before = np.asarray(pressure_before_pa, dtype=np.float64)
+    after = np.asarray(pressure_after_pa, dtype=np.float64)
+    least = np.minimum(before, after) * air
+    most = np.maximum(before, after) * air
+    slack = JUMP_TOLERANCE * np.maximum(np.abs(least), np.abs(most))
+    stored = np.asarray(stored_j, dtype=np.float64)
+    outside = (stored < least - slack) | (stored > most + slack)
+    if slope_before_pa_per_m3 is None or slope_after_pa_per_m3 is None:
+        return outside
+    with np.errstate(invalid='ignore'):
+        work = (0.5 * air * (before + after) + air**2 / 12.0
+                * (np.asarray(slope_before_pa_per_m3, dtype=np.float64)
+                   - np.asarray(slope_after_pa_per_m3, dtype=np.float64)))
+        missed = np.abs(stored - work) > HERMITE_JUMP_TOLERANCE * np.abs(work)
+    return outside | (np.isfinite(work) & missed)
+
+
+def _predictions(values: FloatArray, pressure: float, step: float,
+                 direction: Optional['_Direction'],
+                 previous: Optional[tuple[FloatArray, float, float]]
+                 ) -> list[tuple[FloatArray, float]]:
+    """Newton's starts for the next equilibrium, ``step`` [m3] of air on, the first first.
+
+    Along the path's tangent at the last equilibrium (:func:`_stability`), then along the
+    straight line through the last two equilibria; the last equilibrium itself where neither
+    is known.
+    """
+    starts = []
+    if direction is not None:
+        starts.append((values + step * direction.values_per_m3,
+                       pressure + step * direction.pressure_per_m3))
+    if previous is not None:
+        ratio = step / previous[2]
+        starts.append((values + ratio * (values - previous[0]),
+                       pressure + ratio * (pressure - previous[1])))
+    return starts or [(values, pressure)]
 
 
 def _newton(system: 'EquilibriumSystem', values: FloatArray, pressure: float, target: float,

@@ -4,13 +4,15 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
+from scipy.sparse import csc_matrix
 from scipy.spatial import Delaunay
 from scipy.special import ellipk
 
 from flectofold_model.kinematics import elastica
 from flectofold_model.structure import (elements, kernels, Sheet, SheetSystem,
                                         solve_prescribed, trace_path)
-from flectofold_model.structure.sheet import tangent_inertia
+from flectofold_model.structure.sheet import (_stability, HERMITE_JUMP_TOLERANCE,
+                                              JUMP_TOLERANCE, jumped, tangent_inertia)
 from flectofold_model.structure.shell import MidEdgeBending
 
 YOUNGS_PA = 20e9
@@ -315,3 +317,104 @@ def test_the_tangent_inertia_counts_the_negative_eigenvalues_of_a_compressed_str
     dense = np.linalg.eigvalsh(system.hessians(values, 0.0).toarray())
     assert negative == np.count_nonzero(dense < 0.0)
     assert negative >= 1
+
+
+class TwoWells:
+    """Two unknowns ``(a, b)``, the air ``V = a``, ``E = a^2/2 + b^4/4 - b^2/2 - a b``.
+
+    At a given air ``b`` sits in a double well tilted by ``a``: ``b^3 - b = a``. The branch
+    from ``(0, -1)`` ends at a fold, ``a = 2 / (3 sqrt(3))``, ``b = -1 / sqrt(3)``, where it
+    loses stability; past it the only equilibrium is on the other branch, ``b > 1``.
+    """
+
+    extent_m = 1.0
+    FOLD_AIR = 2.0 / (3.0 * np.sqrt(3.0))
+
+    def rest_values(self):
+        return np.array([0.0, -1.0])
+
+    def sheet_unknowns(self, values):
+        return np.array(values, dtype=float)
+
+    def restrict_sheet(self, sheet_unknowns):
+        return np.array(sheet_unknowns, dtype=float)
+
+    def positions(self, values):
+        return np.array([[values[0], values[1], 0.0]])
+
+    def volume_m3(self, values):
+        return float(values[0])
+
+    def energies_j(self, values):
+        a, b = values
+        return a * a / 2 + b**4 / 4 - b * b / 2 - a * b, 0.0
+
+    def gradients(self, values):
+        a, b = values
+        return np.array([a - b, b**3 - b - a]), np.array([1.0, 0.0])
+
+    def hessians(self, values, pressure_pa):
+        return csc_matrix(np.array([[1.0, -1.0], [-1.0, 3 * values[1]**2 - 1.0]]))
+
+    def tangent_blocks(self, values, pressure_pa):
+        return [self.hessians(values, pressure_pa)]
+
+
+def test_the_paths_direction_is_the_derivative_of_its_equilibria_along_the_air():
+    # On b^3 - b = a, p = a - b: db/da = 1 / (3 b^2 - 1), dp/da = 1 - db/da.
+    system = TwoWells()
+    for air in (0.0, 0.1, 0.3):
+        b = min(root.real for root in np.roots([1.0, 0.0, -1.0, -air]) if abs(root.imag) < 1e-12)
+        values = np.array([air, b])
+        stability, direction = _stability(system, values, air - b)
+        slope = 1.0 / (3.0 * b * b - 1.0)
+        assert stability[1] is True  # with the air held
+        assert direction.values_per_m3 == pytest.approx([1.0, slope], rel=1e-12)
+        assert direction.pressure_per_m3 == pytest.approx(1.0 - slope, rel=1e-12)
+
+
+def test_from_a_stable_equilibrium_a_step_that_lands_on_another_branch_is_made_shorter():
+    # Steps of 0.1 reach 0.3 on the first branch; the next one's only equilibrium is on the
+    # other. The step is halved until the path has come to the fold (within the smallest
+    # step, 0.1 / 64), and only from there does it jump, as the sheet would. (From beside
+    # the fold, where db/da is large, Newton's chords take over a hundred iterations to the
+    # far branch: the iterations allowed are raised for this toy.)
+    system = TwoWells()
+    path = trace_path(None, 0.1, lambda point: point.volume_m3 >= 0.6, start=[0.0, -1.0],
+                      system=system, max_iterations=400)
+    air = np.array([point.volume_m3 for point in path])
+    b = np.array([point.positions_m[0, 1] for point in path])
+    [last] = np.flatnonzero((b[:-1] < 0.0) & (b[1:] > 0.0))
+    assert TwoWells.FOLD_AIR - 0.1 / 64 <= air[last] <= TwoWells.FOLD_AIR
+    assert all(point.stable_at_volume for point in path[:last])
+    assert air[-1] >= 0.6 and np.all(b[last + 1:] > 1.0)
+    stored = np.diff([point.membrane_energy_j for point in path])
+    pressure = np.array([point.pressure_pa for point in path])
+    steps = jumped(np.diff(air), pressure[:-1], pressure[1:], stored)
+    assert np.flatnonzero(steps).tolist() == [last]
+
+
+def test_a_step_jumps_when_its_stored_energy_leaves_the_bounds_of_the_cushions_work():
+    # 1 mL at 1 to 2 kPa: the work lies between 1 and 2 J, with 1 % of 2 J to spare.
+    air, before, after = 1e-3, 1000.0, 2000.0
+    low = 1.0 - JUMP_TOLERANCE * 2.0
+    high = 2.0 + JUMP_TOLERANCE * 2.0
+    for stored, expected in ((low, False), (np.nextafter(low, -np.inf), True),
+                             (high, False), (np.nextafter(high, np.inf), True), (1.5, False)):
+        assert bool(jumped(air, before, after, stored)) is expected, stored
+
+
+def test_a_step_jumps_when_its_stored_energy_misses_the_hermite_rule_for_its_work():
+    # 1 mL from 1 to 2 kPa, dp/dV 1.5e6 and 0.5e6 Pa/m3 at its ends: the Hermite rule's work
+    # is 1.5 J + (1e-3)^2 (1.5e6 - 0.5e6) / 12 = 1.5833 J, within the bounds' 0.98-2.02 J.
+    air, before, after, slopes = 1e-3, 1000.0, 2000.0, (1.5e6, 0.5e6)
+    work = 1.5 + 1e-6 * 1e6 / 12
+    for share, expected in ((0.0, False), (1 - 1e-9, False), (1 + 1e-9, True)):
+        for sign in (-1.0, 1.0):
+            stored = work * (1.0 + sign * share * HERMITE_JUMP_TOLERANCE)
+            assert bool(jumped(air, before, after, stored, *slopes)) is expected, (share, sign)
+            # Without the slopes only the bounds are known: inside them, no jump.
+            assert not jumped(air, before, after, stored)
+    # An unknown slope (NaN) leaves the bounds alone to judge.
+    assert not jumped(air, before, after, 1.9, np.nan, 0.5e6)
+    assert jumped([air, air], before, after, [1.9, 2.1], *slopes).tolist() == [True, True]

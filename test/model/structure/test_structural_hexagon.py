@@ -133,15 +133,17 @@ def test_the_hexagon_path_balances_the_cushion_work_or_reports_a_jump(path):
     pressure, energy = path.pressure_pa, path.strain_energy_j
     jumps = set(path.jumps.tolist())
     # The moulded module (measured): its apex unfolds from 5 deg within the first steps,
-    # and once, near 2.3 deg the other way, the path finds an equilibrium on another branch
-    # whose strain energy is lower by about ten times the step's work: reported.
+    # and once, near 2.3 deg the other way and 31 L, the path finds an equilibrium on another
+    # branch at a lower pressure, the sheet storing less than the cushion's work over the
+    # step (the jump releases energy): reported.
     assert len(jumps) == 1
     smooth = 0
     for first in range(len(steps)):
         work = steps[first] * 0.5 * (pressure[first] + pressure[first + 1])
         stored = energy[first + 1] - energy[first]
         if first + 1 in jumps:
-            assert stored < 0.0 < work
+            assert 0.0 < work and stored < work - 0.1 * abs(work)
+            assert pressure[first + 1] < pressure[first]
             continue
         if first >= 6:
             # Past the first unfolding the trapezoid's error, second order in the step,

@@ -145,14 +145,16 @@ def test_the_hexagon_path_on_its_half_is_the_whole_sheets_and_finds_the_pair_tha
     panel = replace(HEXAGON_ACTUATED, geometry=replace(HEXAGON_ACTUATED.geometry,
                                                        prefold_rad=math.radians(20.0)))
     mesh = HexagonMesh(12, 4, 2, 2)
-    ours = hexagon_structural_path(panel, mesh, steps=12)
+    # Steps of 0.75 L: the pair shows before the even class loses a second mode.
+    ours = hexagon_structural_path(panel, mesh, steps=24)
     assert ours.class_names == ('even', 'odd in x')
     _whole_sheet_only(monkeypatch)
-    whole = hexagon_structural_path(panel, mesh, steps=12)
+    whole = hexagon_structural_path(panel, mesh, steps=24)
     assert ours.ended == whole.ended
     assert len(ours.pressure_pa) == len(whole.pressure_pa) >= 12
     assert ours.pressure_pa == pytest.approx(whole.pressure_pa, rel=1e-7, abs=1e-6)
-    assert np.max(np.abs(ours.positions_m - whole.positions_m)) < 1e-9
+    # Within Newton's tolerance, 1e-8 of the sheet's extent (1.24 m): 12 nm.
+    assert np.max(np.abs(ours.positions_m - whole.positions_m)) < 6e-9
     assert np.array_equal(ours.negative_by_class.sum(axis=1), whole.negative_by_class[:, 0])
     folds = np.degrees(ours.apex_fold_rad)
     pair = [i for i in range(1, len(folds))
