@@ -1,7 +1,8 @@
 """Structural model of the panels: presets against the reflection model, mesh, CPU.
 
 Run with ``.venv/bin/python bench/bench_structure.py [--meshes] [--presets NAME ...
-[--mesh converged]] [--converged [NAME ...]] [--hexagon [--prefold DEG]] [--trends]
+[--mesh converged]] [--converged [NAME ...]] [--hexagon [--prefold DEG]]
+[--hexagon-converged] [--trends]
 [--cushion-map]``.
 Everything printed is computed here; CPU is process time of this process.
 
@@ -18,6 +19,11 @@ Everything printed is computed here; CPU is process time of this process.
   :data:`CONVERGED_MESH` and on the default mesh; the largest distance of tip travel and of
   pressure from the reference's at the same air, over 5-97 % of the reference's air to close,
   and each path's CPU and equilibria (the reference takes about a minute per preset).
+* ``--hexagon-converged``: the hexagonal module on :data:`HEXAGON_REFERENCE_MESH`,
+  :data:`HEXAGON_CONVERGED_MESH`, 72 rays and the default mesh; the largest distance of tip
+  travel (relative where the reference's tip has moved more than 10 mm, in mm elsewhere) and
+  of pressure from the reference's at the same air, over 5-97 % of its air (about five
+  minutes).
 * ``--trends``: the demonstrator's apex fold at a set pressure as hinge width, hinge modulus
   and flap modulus change one at a time (the trends Muehlich et al., Biomimetics 6(3):43,
   2021, state for elastomer-GFRP hinges: the fold rises as material stiffness falls and as
@@ -46,7 +52,8 @@ from flectofold_model.actuation import (ActuationModel, DEMONSTRATOR_ACTUATED,
                                         StripCushion)
 from flectofold_model.actuation.statics import actuated_like
 from flectofold_model.structure.comparison import kinematic_rows, structural_rows
-from flectofold_model.structure.hexagon import hexagon_structural_path, HexagonMesh
+from flectofold_model.structure.hexagon import (HEXAGON_CONVERGED_MESH, HEXAGON_REFERENCE_MESH,
+                                                hexagon_structural_path, HexagonMesh)
 from flectofold_model.structure.panel import (CONVERGED_MESH, PanelMesh, REFERENCE_MESH,
                                               structural_path)
 
@@ -250,6 +257,43 @@ def converged(names):
             print(line, flush=True)
 
 
+def hexagon_converged():
+    """Print the hexagonal module's tip travel and pressure on four meshes against the finest."""
+    meshes = (('reference', HEXAGON_REFERENCE_MESH), ('converged', HEXAGON_CONVERGED_MESH),
+              ('coarser', HexagonMesh(72, 18, 6, 9)), ('default', HexagonMesh()))
+    print('== the hexagonal module (preset pre-fold) against the reference at the same air, '
+          '5-97 % of its air: the tip relative where it has moved more than 10 mm, else in mm; '
+          + '; '.join(f'{label} {m.columns} rays, rows {m.centre_rows} / {m.hinge_rows} / '
+                      f'{m.flap_rows} (central / hinge / flap)' for label, m in meshes) + ' ==')
+    paths = {}
+    for label, mesh in meshes:
+        path, cpu = cpu_of(lambda: hexagon_structural_path(HEXAGON_ACTUATED, mesh))
+        paths[label] = path
+        line = (f'{label}: {path.node_count} nodes, {len(path.pressure_pa) - 1} equilibria, '
+                f'{cpu:.1f} s CPU, ended {path.ended[:48]}; at the end {path.air_m3[-1] * 1e3:.2f}'
+                f' L, {path.pressure_pa[-1]:.0f} Pa, tip {path.tip_travel_m[-1] * 1e3:.1f} mm')
+        if label != 'reference':
+            reference = paths['reference']
+            airs = np.linspace(0.05, 0.97, 185) * reference.air_m3[-1]
+            if path.air_m3[-1] < airs[-1]:
+                print(line + '; ends short of the reference', flush=True)
+                continue
+            tip = np.interp(airs, path.air_m3, path.tip_travel_m)
+            theirs = np.interp(airs, reference.air_m3, reference.tip_travel_m)
+            moved = theirs > 0.01
+            off = np.where(moved, tip / theirs - 1.0, 0.0)
+            worst = int(np.argmax(np.abs(off)))
+            line += (f'; tip at most {off[worst] * 100:+.2f} % off (at {airs[worst] * 1e3:.1f} '
+                     f'L), {np.max(np.abs(tip - theirs)[~moved], initial=0.0) * 1e3:.2f} mm '
+                     f'where under 10 mm')
+            pressure = (np.interp(airs, path.air_m3, path.pressure_pa)
+                        / np.interp(airs, reference.air_m3, reference.pressure_pa) - 1.0)
+            worst = int(np.argmax(np.abs(pressure)))
+            line += (f'; pressure at most {pressure[worst] * 100:+.2f} % off (at '
+                     f'{airs[worst] * 1e3:.1f} L)')
+        print(line, flush=True)
+
+
 def trends(pressure_pa=1500.0):
     base = DEMONSTRATOR_ACTUATED
     geometry = base.geometry
@@ -343,7 +387,7 @@ def hexagon(finest, prefold_deg=None):
     theirs = kinematic_rows(HEXAGON_ACTUATED, closures)
     meshes = [HexagonMesh(24, 6, 2, 3), HexagonMesh()]
     if finest:
-        meshes.append(HexagonMesh(96, 24, 8, 12))
+        meshes.append(HEXAGON_CONVERGED_MESH)
     for mesh in meshes:
         path, cpu = cpu_of(lambda: hexagon_structural_path(panel, mesh))
         print(f'{mesh.columns} rays per sector, hinge rows {mesh.hinge_rows}: '
@@ -397,6 +441,7 @@ def main():
     parser.add_argument('--prefold', type=float, metavar='DEG',
                         help="with --hexagon, the module's moulded pre-fold (preset: 5 deg)")
     parser.add_argument('--converged', nargs='*', metavar='NAME')
+    parser.add_argument('--hexagon-converged', action='store_true')
     parser.add_argument('--trends', action='store_true')
     parser.add_argument('--cushion-map', action='store_true')
     options = parser.parse_args()
@@ -407,6 +452,8 @@ def main():
                     CONVERGED_MESH if options.mesh == 'converged' else PanelMesh())
     if options.converged is not None:
         converged(options.converged)
+    if options.hexagon_converged:
+        hexagon_converged()
     if options.meshes:
         meshes((1, 2, 4, 6, 8) if options.finest else (1, 2, 4))
     if options.trends:

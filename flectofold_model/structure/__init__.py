@@ -13,7 +13,9 @@ Verification and comparison figures: ``msg_docs/structure.md``.
 """
 
 from flectofold_model.structure.cushion_tables import structural_cushion_map, structural_tables
-from flectofold_model.structure.hexagon import (hexagon_structural_path, HexagonMesh,
+from flectofold_model.structure.hexagon import (HEXAGON_CONVERGED_MESH,
+                                                HEXAGON_REFERENCE_MESH,
+                                                hexagon_structural_path, HexagonMesh,
                                                 HexagonSheet)
 from flectofold_model.structure.panel import (PanelMesh, PanelSheet, structural_path,
                                               StructuralPath)
@@ -22,7 +24,8 @@ from flectofold_model.structure.sheet import (PathError, PathPoint, PrescribedEq
                                               trace_path)
 from flectofold_model.structure.symmetry import Mirror, MirroredSystem
 
-__all__ = ['HexagonMesh', 'HexagonSheet', 'Mirror', 'MirroredSystem', 'PanelMesh',
+__all__ = ['HEXAGON_CONVERGED_MESH', 'HEXAGON_REFERENCE_MESH', 'HexagonMesh', 'HexagonSheet',
+           'Mirror', 'MirroredSystem', 'PanelMesh',
            'PanelSheet', 'PathError', 'PathPoint', 'PrescribedEquilibrium', 'Sheet',
            'SheetSystem', 'StructuralPath',
            'hexagon_structural_path', 'solve_prescribed', 'structural_cushion_map',

@@ -20,7 +20,8 @@ from flectofold_model.kinematics.hexagon_closure import HexagonFoldModel
 from flectofold_model.kinematics.hexagon_panel import HEXAGON_MODULE, HexagonBatch
 from flectofold_model.kinematics.hexagon_panel import HexagonPanel
 from flectofold_model.structure.comparison import kinematic_rows, structural_rows
-from flectofold_model.structure.hexagon import hexagon_structural_path, HexagonMesh
+from flectofold_model.structure.hexagon import (HEXAGON_CONVERGED_MESH, HEXAGON_REFERENCE_MESH,
+                                                hexagon_structural_path, HexagonMesh)
 from flectofold_model.structure.panel import (CONVERGED_MESH, PanelMesh, REFERENCE_MESH,
                                               structural_path)
 from flectofold_ros.runtime.runner import run_command
@@ -141,20 +142,21 @@ STRUCTURAL_COLUMNS = (
 STRUCTURAL_MESHES = {
     'coarse': (PanelMesh(40, 4, 2, 4), HexagonMesh(24, 6, 2, 3)),
     'default': (PanelMesh(), HexagonMesh()),
-    'fine': (REFERENCE_MESH, HexagonMesh(96, 24, 8, 12)),
-    # Shown converged for quad panels only (msg_docs/structure.md); no hexagon mesh is.
-    'converged': (CONVERGED_MESH, None),
+    'fine': (REFERENCE_MESH, HEXAGON_REFERENCE_MESH),
+    # Shown converged to 1 % in tip travel against the fine ones (msg_docs/structure.md).
+    'converged': (CONVERGED_MESH, HEXAGON_CONVERGED_MESH),
 }
 #: The name in :data:`STRUCTURAL_MESHES` of each kind's mesh when none is asked for: quad,
 #: hexagon.
-UNASKED_MESH = ('converged', 'default')
+UNASKED_MESH = ('converged', 'converged')
 
 
 def structural_fold_table(panel, steps, mesh=None, rrd_path=None):
     """Lines of the structural model's table beside the reflection model's, either kind.
 
     ``mesh`` is a :class:`PanelMesh` for a quad panel, a :class:`HexagonMesh` for a hexagonal
-    one; default :data:`CONVERGED_MESH` for a quad panel, the hexagon's default mesh.
+    one; default :data:`CONVERGED_MESH` for a quad panel, :data:`HEXAGON_CONVERGED_MESH` for
+    the hexagon.
     ``rrd_path``: also write the path to a Rerun recording there
     (:mod:`flectofold_ros.rerun.structure_scene`), checked before the path is traced.
     """
@@ -359,14 +361,14 @@ def main(args=None):
                              'equilibrium path of the GFRP sheet under the cushion beside the '
                              'reflection model (seconds to minutes, see --mesh)')
     parser.add_argument('--mesh', choices=tuple(STRUCTURAL_MESHES),
-                        help='structural mesh: converged (quad panels, the default for them: '
-                             '160 columns, 8 hinge rows, graded flap rows; tip travel within '
-                             '1 %% of the fine mesh at every air, about 15 s), default (80 '
-                             'columns / 48 rays, 4 hinge rows: seconds, the hexagon about half '
-                             'a minute, and the default for it; the quad pressures up to 14 %% '
-                             'low), coarse (40 columns / 24 rays, 2 hinge rows: not converged), '
-                             'fine (quad: 320 columns, 16 graded flap rows, about a minute; '
-                             'hexagon: 96 rays, 8 hinge rows, minutes)')
+                        help='structural mesh: converged (the default; tip travel within 1 %% '
+                             'of the fine mesh at every air; quad: 160 columns, 8 hinge rows, '
+                             'graded flap rows, about 15 s; hexagon: 96 rays, 8 hinge rows, '
+                             'about a minute), default (80 columns / 48 rays, 4 hinge rows: '
+                             'seconds; pressures up to 14 %% low), coarse (40 columns / 24 '
+                             'rays, 2 hinge rows: not converged), fine (quad: 320 columns, 16 '
+                             'graded flap rows, about a minute; hexagon: 144 rays, 12 hinge '
+                             'rows, minutes)')
     parser.add_argument('--rrd', metavar='OUT.rrd',
                         help='with --model structural: also write the path to a Rerun '
                              'recording, the sheet at every equilibrium coloured by its '
@@ -381,9 +383,6 @@ def main(args=None):
         hexagon = isinstance(panel, HexagonPanel)
         chosen = options.mesh or UNASKED_MESH[hexagon]
         mesh = STRUCTURAL_MESHES[chosen][hexagon]
-        if mesh is None:
-            parser.error(f'--mesh {chosen} is for quad panels: no hexagon mesh is shown '
-                         'converged (msg_docs/structure.md); --mesh fine is the finest')
         return run_command('fold_table', lambda stop: print(
             '\n'.join(structural_fold_table(panel, options.steps, mesh, options.rrd))),
             interrupted_code=130)

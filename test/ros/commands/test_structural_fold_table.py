@@ -8,7 +8,8 @@ import numpy as np
 
 from flectofold_model import DEMONSTRATOR_MODULE, FoldModel, PanelBatch
 from flectofold_model.kinematics.hexagon_panel import HEXAGON_MODULE
-from flectofold_model.structure.hexagon import HexagonMesh
+from flectofold_model.structure.hexagon import (HEXAGON_CONVERGED_MESH, HEXAGON_REFERENCE_MESH,
+                                                HexagonMesh)
 from flectofold_model.structure.panel import CONVERGED_MESH, PanelMesh
 from flectofold_ros.commands import fold_table
 
@@ -59,7 +60,7 @@ def test_the_hexagon_table_says_where_its_path_ended():
     # On this mesh the module unfolds at its apex and the path runs to its air limit
     # (measured); the line says so.
     assert len(ended) == 1 and 'not closed with 38.5 L of air' in ended[0]
-    assert any(line.startswith('a mesh coarser than the default') for line in lines)
+    assert any(line.startswith('a mesh coarser than the converged one') for line in lines)
 
 
 def test_the_hexagon_table_names_the_mode_pair_that_breaks_its_three_fold_turn():
@@ -89,8 +90,7 @@ def test_the_hexagon_takes_the_structural_model_on_the_command_line(capsys, monk
     assert capsys.readouterr().out == 'table\n'
 
 
-def test_the_converged_mesh_is_a_quad_panels_default_and_refused_for_the_hexagon(
-        capsys, monkeypatch):
+def test_the_converged_mesh_is_every_panels_default(monkeypatch):
     seen = {}
 
     def table(panel, steps, mesh, rrd_path):
@@ -100,22 +100,17 @@ def test_the_converged_mesh_is_a_quad_panels_default_and_refused_for_the_hexagon
     monkeypatch.setattr(fold_table, 'structural_fold_table', table)
     assert fold_table.main(['fold_table', '--model', 'structural', '--mesh', 'converged']) == 0
     assert seen == {'mesh': CONVERGED_MESH}
-    # Without --mesh: the converged mesh for a quad panel, the default one for the hexagon.
+    assert fold_table.main(['fold_table', '--panel', 'hexagon', '--model', 'structural',
+                            '--mesh', 'converged']) == 0
+    assert seen == {'mesh': HEXAGON_CONVERGED_MESH}
+    # Without --mesh: the converged mesh of either kind.
     assert fold_table.main(['fold_table', '--model', 'structural']) == 0
     assert seen == {'mesh': CONVERGED_MESH}
     assert fold_table.main(['fold_table', '--panel', 'hexagon', '--model', 'structural']) == 0
-    assert seen == {'mesh': HexagonMesh()}
-    seen.clear()
-    try:
-        fold_table.main(['fold_table', '--panel', 'hexagon', '--model', 'structural',
-                         '--mesh', 'converged'])
-    except SystemExit as stop:
-        assert stop.code == 2
-    else:
-        raise AssertionError('the hexagon was not refused')
-    assert seen == {}
-    assert ('--mesh converged is for quad panels: no hexagon mesh is shown converged'
-            in capsys.readouterr().err)
+    assert seen == {'mesh': HEXAGON_CONVERGED_MESH}
+    assert fold_table.main(['fold_table', '--panel', 'hexagon', '--model', 'structural',
+                            '--mesh', 'fine']) == 0
+    assert seen == {'mesh': HEXAGON_REFERENCE_MESH}
 
 
 def test_a_graded_mesh_is_named_in_the_heading():
