@@ -33,9 +33,10 @@ REFACTOR_CONTRACTION = 0.2
 #: leave its bounds before the step counts as a jump to another branch [-] (:func:`jumped`).
 JUMP_TOLERANCE = 0.01
 #: Share of a step's work by the Hermite rule by which the stored strain energy may miss it
-#: before the step counts as a jump [-] (:func:`jumped`): smooth steps of the presets and the
-#: hexagon miss it by at most 2 %, the 1000 mm variant's jump by 40 %
-#: (``msg_docs/structure.md``, "Path following").
+#: before the step counts as a jump [-] (:func:`jumped`): the smooth steps measured (the
+#: demonstrator, the 1000 mm variant, the hexagon) miss it by at most 2 %, the 1000 mm
+#: variant's jump from a stable equilibrium by 40 % (``msg_docs/structure.md``, "Path
+#: following").
 HERMITE_JUMP_TOLERANCE = 0.05
 #: Halvings of a Newton step of :func:`solve_prescribed` that raises the strain energy.
 LINE_SEARCH_HALVINGS = 12
