@@ -1,24 +1,26 @@
 """Structural model of the panels: presets against the reflection model, mesh, CPU.
 
 Run with ``.venv/bin/python bench/bench_structure.py [--meshes] [--presets NAME ...
-[--mesh converged]] [--converged [NAME ...]] [--hexagon [--prefold DEG]]
+[--mesh converged|banded]] [--converged [NAME ...]] [--hexagon [--prefold DEG]]
 [--hexagon-converged] [--trends]
 [--cushion-map]``.
 Everything printed is computed here; CPU is process time of this process.
 
 * ``--presets``: each preset's structural path on the default mesh (``--mesh converged``: on
-  :data:`CONVERGED_MESH`) beside the reflection model (pressure, air, tip travel, hinge
-  strain at closures 0.25 ... 1), where it ends, its pressure maximum, and its CPU time
-  against the reflection model's table of the same closures.
+  :data:`CONVERGED_MESH`, ``--mesh banded`` on :data:`BANDED_MESH`) beside the reflection
+  model (pressure, air, tip travel, hinge strain at closures 0.25 ... 1), where it ends,
+  its pressure maximum, and its CPU time against the reflection model's table of the same
+  closures.
 * ``--meshes``: the demonstrator on the meshes 20 / 40 / 80 columns, every count scaled alike
   (with ``--finest`` also 120 and 160); pressure and tip travel at fixed apex folds and the
   change per refinement; then at fixed air and at fixed apex fold on the last three meshes,
   the observed order of convergence and Richardson's estimate of the limit, and each mesh's
   distance from it.
 * ``--converged [NAME ...]``: each preset (default all) on :data:`REFERENCE_MESH`, on
-  :data:`CONVERGED_MESH` and on the default mesh; the largest distance of tip travel and of
-  pressure from the reference's at the same air, over 5-97 % of the reference's air to close,
-  and each path's CPU and equilibria (the reference takes about a minute per preset).
+  :data:`CONVERGED_MESH`, on :data:`BANDED_MESH` and on the default mesh; the largest
+  distance of tip travel and of pressure from the reference's at the same air, over 5-97 %
+  of the reference's air to close, and each path's CPU and equilibria (the reference takes
+  about a minute per preset).
 * ``--hexagon-converged``: the hexagonal module on :data:`HEXAGON_REFERENCE_MESH`,
   :data:`HEXAGON_CONVERGED_MESH`, 72 rays and the default mesh; the largest distance of tip
   travel (relative where the reference's tip has moved more than 10 mm, in mm elsewhere) and
@@ -54,8 +56,8 @@ from flectofold_model.actuation.statics import actuated_like
 from flectofold_model.structure.comparison import kinematic_rows, structural_rows
 from flectofold_model.structure.hexagon import (HEXAGON_CONVERGED_MESH, HEXAGON_REFERENCE_MESH,
                                                 hexagon_structural_path, HexagonMesh)
-from flectofold_model.structure.panel import (CONVERGED_MESH, PanelMesh, REFERENCE_MESH,
-                                              structural_path)
+from flectofold_model.structure.panel import (BANDED_MESH, CONVERGED_MESH, PanelMesh,
+                                              REFERENCE_MESH, structural_path)
 
 CLOSURES = np.array([0.25, 0.5, 0.75, 1.0])
 
@@ -228,10 +230,12 @@ def converged(names):
     """Tip travel and pressure of the converged and default meshes against the reference's."""
     chosen = presets()
     meshes = (('reference', REFERENCE_MESH), ('converged', CONVERGED_MESH),
-              ('default', PanelMesh()))
+              ('banded', BANDED_MESH), ('default', PanelMesh()))
     print('== meshes against the reference at the same air, 5-97 % of its air to close: '
           + '; '.join(f'{label} {m.columns} columns, rows {m.midrib_rows} / {m.hinge_rows} / '
                       f'{m.flap_rows} (mid-rib / hinge / flap), flap growth {m.flap_growth:g}'
+                      + (f', {m.outer_columns} columns away from the bands'
+                         if m.outer_columns else '')
                       for label, m in meshes) + ' ==')
     for name in names or chosen:
         paths = {}
@@ -435,7 +439,7 @@ def main():
                         help='with --meshes, also 120 and 160 columns (6 and 8 hinge rows; '
                         'minutes)')
     parser.add_argument('--presets', nargs='*')
-    parser.add_argument('--mesh', choices=('default', 'converged'), default='default',
+    parser.add_argument('--mesh', choices=('default', 'converged', 'banded'), default='default',
                         help='with --presets, the mesh the paths are traced on')
     parser.add_argument('--hexagon', action='store_true')
     parser.add_argument('--prefold', type=float, metavar='DEG',
@@ -449,7 +453,8 @@ def main():
         chosen = presets()
         for name in options.presets or chosen:
             compare(name, chosen[name],
-                    CONVERGED_MESH if options.mesh == 'converged' else PanelMesh())
+                    {'converged': CONVERGED_MESH, 'banded': BANDED_MESH}.get(options.mesh,
+                                                                             PanelMesh()))
     if options.converged is not None:
         converged(options.converged)
     if options.hexagon_converged:

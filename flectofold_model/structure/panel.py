@@ -127,11 +127,15 @@ WIND_PRESSURE_PA = 1000.0
 DEAD_VOLUME_M3: float = PlantParameters.dead_volume_m3
 
 
-#: Fields of a mesh that shape its rows rather than count them.
-SHAPE_FIELDS = ('flap_growth',)
+#: Fields of a mesh that shape its rows rather than count them (checked by the mesh itself).
+SHAPE_FIELDS = ('flap_growth', 'outer_columns')
 #: Bounds of :attr:`PanelMesh.flap_growth` [-]: beyond them the narrowest flap row is less
 #: than a tenth of the widest (a hundredth of the width at the default 8 rows).
 FLAP_GROWTH_BOUNDS = (0.1, 10.0)
+
+
+def _power_of_two(value: int) -> bool:
+    return value >= 1 and value & (value - 1) == 0
 
 
 def check_mesh_counts(mesh: MeshCounts) -> None:
@@ -167,9 +171,23 @@ class PanelMesh:
     """Width of a flap's outermost row over its innermost (by the hinge) [-]; the rows between
     grow geometrically. Above 1 the flap is meshed finer where it bends most, beside the
     hinge band. Within :data:`FLAP_GROWTH_BOUNDS`."""
+    outer_columns: int = 0
+    """Fewest elements along a node line away from the hinge bands; 0: every line has
+    ``columns`` (a structured grid). Otherwise the lines of the bands have ``columns``, and
+    each line further from the nearest band line half as many as the one before, down to
+    this many: lines of different counts are joined by rows of three triangles per coarse
+    element. Even, at least 4, ``columns`` divided by a power of 2."""
 
     def __post_init__(self) -> None:
         check_mesh_counts(self)
+        outer = self.outer_columns
+        if (isinstance(outer, bool) or not isinstance(outer, (int, np.integer))
+                or (outer != 0 and not (outer >= 4 and outer % 2 == 0
+                                        and self.columns % outer == 0
+                                        and _power_of_two(self.columns // outer)))):
+            raise ValueError(f'outer_columns must be 0 or an even count of at least 4 that '
+                             f'divides columns ({self.columns}) by a power of 2, '
+                             f'got {outer!r}')
         low, high = FLAP_GROWTH_BOUNDS
         growth = self.flap_growth
         if (isinstance(growth, bool) or not isinstance(growth, (int, float, np.floating))
@@ -180,7 +198,18 @@ class PanelMesh:
     def refined(self, factor: int) -> 'PanelMesh':
         """Return the same mesh with every count multiplied by ``factor`` (the growth kept)."""
         return PanelMesh(self.columns * factor, self.midrib_rows * factor,
-                         self.hinge_rows * factor, self.flap_rows * factor, self.flap_growth)
+                         self.hinge_rows * factor, self.flap_rows * factor, self.flap_growth,
+                         self.outer_columns * factor)
+
+    def line_columns(self) -> IntArray:
+        """Elements along each node line of the whole sheet, from the ``-y`` edge."""
+        half = self.midrib_rows + self.hinge_rows + self.flap_rows
+        line = np.arange(2 * half + 1) - half  # signed line number from the axis
+        inner, outer = self.midrib_rows, self.midrib_rows + self.hinge_rows
+        away = np.maximum(np.maximum(inner - np.abs(line), np.abs(line) - outer), 0)
+        if self.outer_columns == 0:
+            return np.full(len(line), self.columns)
+        return np.maximum(self.columns >> np.minimum(away, 62), self.outer_columns)
 
 
 #: A quad mesh whose tip travel at every air is within 1 % of :data:`REFERENCE_MESH`'s, which
@@ -191,6 +220,12 @@ class PanelMesh:
 CONVERGED_MESH = PanelMesh(160, 8, 8, 8, 4.0)
 #: The mesh :data:`CONVERGED_MESH` is measured against.
 REFERENCE_MESH = PanelMesh(320, 8, 8, 16, 4.0)
+#: :data:`CONVERGED_MESH` with its columns only in the hinge bands: 160 there, halving with
+#: every node line away from them down to 20 (3,869 nodes against 7,889); within 1 % of
+#: :data:`REFERENCE_MESH` in tip travel at every air for every preset that closes, at about
+#: half the CPU (``bench/bench_structure.py --converged``; ``msg_docs/structure.md``, "A mesh
+#: fine only in the hinge bands").
+BANDED_MESH = PanelMesh(160, 8, 8, 8, 4.0, 20)
 
 
 @dataclass(frozen=True)
@@ -220,7 +255,13 @@ class PanelSheet:
     def mirrors(self) -> tuple['Mirror', ...]:
         """The mesh's mirrors ``x -> -x`` and ``y -> -y`` (:mod:`.symmetry`)."""
         from flectofold_model.structure.symmetry import Mirror
-        return (Mirror(self.grid[::-1, :].ravel(), 0), Mirror(self.grid[:, ::-1].ravel(), 1))
+        kept = self.grid >= 0
+        images = []
+        for image in (self.grid[::-1, :], self.grid[:, ::-1]):
+            node = np.empty(np.count_nonzero(kept), dtype=np.int64)
+            node[self.grid[kept]] = image[kept]
+            images.append(node)
+        return Mirror(images[0], 0), Mirror(images[1], 1)
 
     def outward_xy(self, points_xy_m: FloatArray) -> FloatArray:
         """In-plane unit normal of the nearer drawn fold line at points, away from the axis."""
@@ -231,8 +272,25 @@ class PanelSheet:
         return outward / np.linalg.norm(outward, axis=1, keepdims=True)
 
     def fold_angles_rad(self, positions_m: FloatArray) -> FloatArray:
-        """Fold angle across the upper hinge band at each column of cells [rad]."""
-        return band_fold_angles_rad(self.grid, self.inner_row, self.outer_row, positions_m)
+        """Fold angle across the upper hinge band at each column of cells [rad].
+
+        Cells of the lines on either side of the band; where those have fewer nodes than the
+        band (:attr:`PanelMesh.outer_columns`), at their columns, with the flap edge's node
+        nearest each for the sign.
+        """
+        return band_fold_angles_rad(self._measure, 1, 2, positions_m)
+
+    @cached_property
+    def _measure(self) -> IntArray:
+        """The lines the fold is read on: beside the band, its edges, the flap edge."""
+        lines = self.grid[:, [self.inner_row - 1, self.inner_row, self.outer_row,
+                              self.outer_row + 1, -1]]
+        columns = np.flatnonzero(np.all(lines[:, :4] >= 0, axis=1))
+        edge = np.flatnonzero(lines[:, 4] >= 0)
+        nearest = edge[np.argmin(np.abs(columns[:, None] - edge[None, :]), axis=1)]
+        measure = lines[columns].copy()
+        measure[:, 4] = lines[nearest, 4]
+        return measure
 
     def apex_fold_rad(self, folds: FloatArray) -> FloatArray:
         """Fold at mid-span: the mean of the two columns of cells beside it (last axis)."""
@@ -290,9 +348,14 @@ def build_panel_sheet(panel: 'ActuatedPanel', mesh: PanelMesh = PanelMesh()) -> 
     upper = fractions.T
     y = np.concatenate([-upper[:, :0:-1], upper], axis=1)
     rows = y.shape[1] - 1
-    grid = np.arange((mesh.columns + 1) * (rows + 1)).reshape(mesh.columns + 1, rows + 1)
-    xy = np.column_stack([np.repeat(x, rows + 1), y.ravel()])
-    triangles, row_of = checker_triangles(grid)
+    # A line of fewer elements keeps every (columns / its count)-th of the finest nodes.
+    stride = mesh.columns // mesh.line_columns()
+    kept = (np.arange(mesh.columns + 1)[:, None] % stride[None, :]) == 0
+    grid = np.full((mesh.columns + 1, rows + 1), -1)
+    grid[kept] = np.arange(np.count_nonzero(kept))
+    xy = np.column_stack([np.broadcast_to(x[:, None], y.shape)[kept], y[kept]])
+    triangles, row_of = (checker_triangles(grid) if mesh.outer_columns == 0
+                         else banded_triangles(grid))
     half = rows // 2
     distance = np.abs(row_of - half + 0.5) + 0.5
     zone = np.where(distance <= mesh.midrib_rows, MIDRIB,
@@ -330,6 +393,41 @@ def graded_fractions(intervals: int, growth: float) -> FloatArray:
     fractions = np.concatenate([[0.0], np.cumsum(widths) / widths.sum()])
     fractions[-1] = 1.0
     return fractions
+
+
+def banded_triangles(grid: IntArray) -> tuple[IntArray, IntArray]:
+    """Counter-clockwise triangles of a grid whose node lines have their own counts.
+
+    ``grid`` as :attr:`PanelSheet.grid`, -1 where a line has no node. Two lines of one count
+    are joined as :func:`checker_triangles` joins them (the checker by column and row);
+    lines of counts ``n`` and ``2 n`` by three triangles per element of the coarser, its two
+    corners and the finer line's three nodes over it. Mirror-symmetric in x and y for even
+    counts and an even number of rows.
+    """
+    triangles, row_of = [], []
+    for row in range(grid.shape[1] - 1):
+        low, high = grid[:, row], grid[:, row + 1]
+        low, high = low[low >= 0], high[high >= 0]
+        if len(low) == len(high):
+            i = np.arange(len(low) - 1)
+            a, b, c, d = low[i], low[i + 1], high[i + 1], high[i]
+            even = ((i + row) % 2 == 0)[:, None]
+            triangles += [np.where(even, np.stack([a, b, c], 1), np.stack([a, b, d], 1)),
+                          np.where(even, np.stack([a, c, d], 1), np.stack([b, c, d], 1))]
+            row_of += [np.full(2 * len(i), row)]
+            continue
+        coarse, fine = (low, high) if len(low) < len(high) else (high, low)
+        if len(fine) != 2 * len(coarse) - 1:
+            raise ValueError('neighbouring lines must have equal counts or one twice the other')
+        j = np.arange(len(coarse) - 1)
+        left, right = coarse[j], coarse[j + 1]
+        first, middle, last = fine[2 * j], fine[2 * j + 1], fine[2 * j + 2]
+        three = [np.stack([left, first, middle], 1), np.stack([left, middle, right], 1),
+                 np.stack([right, middle, last], 1)]
+        # Counter-clockwise as written where the coarser line is the upper (+y) one.
+        triangles += three if len(high) < len(low) else [t[:, ::-1] for t in three]
+        row_of += [np.full(3 * len(j), row)]
+    return np.concatenate(triangles), np.concatenate(row_of)
 
 
 def checker_triangles(grid: IntArray) -> tuple[IntArray, IntArray]:

@@ -22,8 +22,8 @@ from flectofold_model.kinematics.hexagon_panel import HexagonPanel
 from flectofold_model.structure.comparison import kinematic_rows, structural_rows
 from flectofold_model.structure.hexagon import (HEXAGON_CONVERGED_MESH, HEXAGON_REFERENCE_MESH,
                                                 hexagon_structural_path, HexagonMesh)
-from flectofold_model.structure.panel import (CONVERGED_MESH, PanelMesh, REFERENCE_MESH,
-                                              structural_path)
+from flectofold_model.structure.panel import (BANDED_MESH, CONVERGED_MESH, PanelMesh,
+                                              REFERENCE_MESH, structural_path)
 from flectofold_ros.runtime.runner import run_command
 
 PANELS = {'demonstrator': DEMONSTRATOR_MODULE, 'prototype': PROTOTYPE,
@@ -145,6 +145,8 @@ STRUCTURAL_MESHES = {
     'fine': (REFERENCE_MESH, HEXAGON_REFERENCE_MESH),
     # Shown converged to 1 % in tip travel against the fine ones (msg_docs/structure.md).
     'converged': (CONVERGED_MESH, HEXAGON_CONVERGED_MESH),
+    # The quad's converged mesh with its columns only in the hinge bands; no hexagon one.
+    'banded': (BANDED_MESH, None),
 }
 #: The name in :data:`STRUCTURAL_MESHES` of each kind's mesh when none is asked for: quad,
 #: hexagon.
@@ -268,6 +270,8 @@ def _structural_heading(panel, mesh, path):
             f'{mesh.hinge_rows} hinge / {mesh.flap_rows} flap per side'
             + (f', flap rows {mesh.flap_growth:g} x wider at the edge than by the hinge'
                if mesh.flap_growth != 1.0 else '')
+            + (f', columns halving away from the hinge bands to {mesh.outer_columns}'
+               if mesh.outer_columns else '')
             + f'), {len(path.pressure_pa) - 1} equilibria')
 
 
@@ -364,11 +368,13 @@ def main(args=None):
                         help='structural mesh: converged (the default; tip travel within 1 %% '
                              'of the fine mesh at every air; quad: 160 columns, 8 hinge rows, '
                              'graded flap rows, about 15 s; hexagon: 96 rays, 8 hinge rows, '
-                             'about a minute), default (80 columns / 48 rays, 4 hinge rows: '
-                             'seconds; pressures up to 14 %% low), coarse (40 columns / 24 '
-                             'rays, 2 hinge rows: not converged), fine (quad: 320 columns, 16 '
-                             'graded flap rows, about a minute; hexagon: 144 rays, 12 hinge '
-                             'rows, minutes)')
+                             'about a minute), banded (quad panels: the converged mesh with its '
+                             '160 columns only in the hinge bands, 20 away from them; as close '
+                             'to the fine mesh, about 6 s), default (80 columns / 48 rays, 4 '
+                             'hinge rows: seconds; pressures up to 14 %% low), coarse (40 '
+                             'columns / 24 rays, 2 hinge rows: not converged), fine (quad: 320 '
+                             'columns, 16 graded flap rows, about a minute; hexagon: 144 rays, '
+                             '12 hinge rows, minutes)')
     parser.add_argument('--rrd', metavar='OUT.rrd',
                         help='with --model structural: also write the path to a Rerun '
                              'recording, the sheet at every equilibrium coloured by its '
@@ -383,6 +389,9 @@ def main(args=None):
         hexagon = isinstance(panel, HexagonPanel)
         chosen = options.mesh or UNASKED_MESH[hexagon]
         mesh = STRUCTURAL_MESHES[chosen][hexagon]
+        if mesh is None:
+            parser.error(f'--mesh {chosen} is for quad panels: the hexagon has no banded mesh '
+                         '(msg_docs/structure.md); --mesh converged is its converged one')
         return run_command('fold_table', lambda stop: print(
             '\n'.join(structural_fold_table(panel, options.steps, mesh, options.rrd))),
             interrupted_code=130)

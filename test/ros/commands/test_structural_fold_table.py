@@ -10,7 +10,7 @@ from flectofold_model import DEMONSTRATOR_MODULE, FoldModel, PanelBatch
 from flectofold_model.kinematics.hexagon_panel import HEXAGON_MODULE
 from flectofold_model.structure.hexagon import (HEXAGON_CONVERGED_MESH, HEXAGON_REFERENCE_MESH,
                                                 HexagonMesh)
-from flectofold_model.structure.panel import CONVERGED_MESH, PanelMesh
+from flectofold_model.structure.panel import BANDED_MESH, CONVERGED_MESH, PanelMesh
 from flectofold_ros.commands import fold_table
 
 #: One hinge row: the quickest mesh that reaches the closed fold (about 6 s), for the format.
@@ -113,11 +113,38 @@ def test_the_converged_mesh_is_every_panels_default(monkeypatch):
     assert seen == {'mesh': HEXAGON_REFERENCE_MESH}
 
 
+def test_the_banded_mesh_is_for_quad_panels_and_refused_for_the_hexagon(capsys, monkeypatch):
+    seen = {}
+
+    def table(panel, steps, mesh, rrd_path):
+        seen.update(mesh=mesh)
+        return ['table']
+
+    monkeypatch.setattr(fold_table, 'structural_fold_table', table)
+    assert fold_table.main(['fold_table', '--model', 'structural', '--mesh', 'banded']) == 0
+    assert seen == {'mesh': BANDED_MESH}
+    seen.clear()
+    try:
+        fold_table.main(['fold_table', '--panel', 'hexagon', '--model', 'structural',
+                         '--mesh', 'banded'])
+    except SystemExit as stop:
+        assert stop.code == 2
+    else:
+        raise AssertionError('the hexagon was not refused')
+    assert seen == {}
+    assert ('--mesh banded is for quad panels: the hexagon has no banded mesh'
+            in capsys.readouterr().err)
+
+
 def test_a_graded_mesh_is_named_in_the_heading():
     graded = replace(QUICK, flap_growth=4.0)
     lines = fold_table.structural_fold_table(DEMONSTRATOR_MODULE, 2, graded)
     assert 'rows 2 mid-rib / 1 hinge / 2 flap per side, flap rows 4 x wider at the edge than ' \
         'by the hinge)' in lines[0]
+    banded = replace(QUICK, outer_columns=QUICK.columns // 2)
+    lines = fold_table.structural_fold_table(DEMONSTRATOR_MODULE, 2, banded)
+    assert (f'flap per side, columns halving away from the hinge bands to '
+            f'{QUICK.columns // 2})') in lines[0]
 
 
 def test_help_names_the_structural_columns(capsys):
