@@ -5,6 +5,7 @@ import math
 import re
 
 import numpy as np
+import pytest
 
 from flectofold_model import DEMONSTRATOR_MODULE, FoldModel, PanelBatch
 from flectofold_model.kinematics.hexagon_panel import HEXAGON_MODULE
@@ -75,7 +76,9 @@ def test_the_hexagon_table_names_the_mode_pair_that_breaks_its_three_fold_turn()
     assert 'one end of the span' not in lost[0]
 
 
-def test_the_hexagon_takes_the_structural_model_on_the_command_line(capsys, monkeypatch):
+@pytest.fixture
+def tables(monkeypatch):
+    """Record what ``fold_table.main`` asks the structural table for instead of tracing it."""
     seen = {}
 
     def table(panel, steps, mesh, rrd_path):
@@ -83,6 +86,11 @@ def test_the_hexagon_takes_the_structural_model_on_the_command_line(capsys, monk
         return ['table']
 
     monkeypatch.setattr(fold_table, 'structural_fold_table', table)
+    return seen
+
+
+def test_the_hexagon_takes_the_structural_model_on_the_command_line(capsys, tables):
+    seen = tables
     assert fold_table.main(['fold_table', '--panel', 'hexagon', '--model', 'structural',
                             '--mesh', 'coarse', '--steps', '3']) == 0
     assert seen == {'panel': HEXAGON_MODULE, 'steps': 3, 'mesh': HexagonMesh(24, 6, 2, 3),
@@ -90,39 +98,27 @@ def test_the_hexagon_takes_the_structural_model_on_the_command_line(capsys, monk
     assert capsys.readouterr().out == 'table\n'
 
 
-def test_the_converged_mesh_is_every_panels_default(monkeypatch):
-    seen = {}
-
-    def table(panel, steps, mesh, rrd_path):
-        seen.update(mesh=mesh)
-        return ['table']
-
-    monkeypatch.setattr(fold_table, 'structural_fold_table', table)
+def test_the_converged_mesh_is_every_panels_default(tables):
+    seen = tables
     assert fold_table.main(['fold_table', '--model', 'structural', '--mesh', 'converged']) == 0
-    assert seen == {'mesh': CONVERGED_MESH}
+    assert seen['mesh'] == CONVERGED_MESH
     assert fold_table.main(['fold_table', '--panel', 'hexagon', '--model', 'structural',
                             '--mesh', 'converged']) == 0
-    assert seen == {'mesh': HEXAGON_CONVERGED_MESH}
+    assert seen['mesh'] == HEXAGON_CONVERGED_MESH
     # Without --mesh: the converged mesh of either kind.
     assert fold_table.main(['fold_table', '--model', 'structural']) == 0
-    assert seen == {'mesh': CONVERGED_MESH}
+    assert seen['mesh'] == CONVERGED_MESH
     assert fold_table.main(['fold_table', '--panel', 'hexagon', '--model', 'structural']) == 0
-    assert seen == {'mesh': HEXAGON_CONVERGED_MESH}
+    assert seen['mesh'] == HEXAGON_CONVERGED_MESH
     assert fold_table.main(['fold_table', '--panel', 'hexagon', '--model', 'structural',
                             '--mesh', 'fine']) == 0
-    assert seen == {'mesh': HEXAGON_REFERENCE_MESH}
+    assert seen['mesh'] == HEXAGON_REFERENCE_MESH
 
 
-def test_the_banded_mesh_is_for_quad_panels_and_refused_for_the_hexagon(capsys, monkeypatch):
-    seen = {}
-
-    def table(panel, steps, mesh, rrd_path):
-        seen.update(mesh=mesh)
-        return ['table']
-
-    monkeypatch.setattr(fold_table, 'structural_fold_table', table)
+def test_the_banded_mesh_is_for_quad_panels_and_refused_for_the_hexagon(capsys, tables):
+    seen = tables
     assert fold_table.main(['fold_table', '--model', 'structural', '--mesh', 'banded']) == 0
-    assert seen == {'mesh': BANDED_MESH}
+    assert seen['mesh'] == BANDED_MESH
     seen.clear()
     try:
         fold_table.main(['fold_table', '--panel', 'hexagon', '--model', 'structural',
