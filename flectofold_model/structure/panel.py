@@ -409,12 +409,9 @@ def banded_triangles(grid: IntArray) -> tuple[IntArray, IntArray]:
         low, high = grid[:, row], grid[:, row + 1]
         low, high = low[low >= 0], high[high >= 0]
         if len(low) == len(high):
-            i = np.arange(len(low) - 1)
-            a, b, c, d = low[i], low[i + 1], high[i + 1], high[i]
-            even = ((i + row) % 2 == 0)[:, None]
-            triangles += [np.where(even, np.stack([a, b, c], 1), np.stack([a, b, d], 1)),
-                          np.where(even, np.stack([a, c, d], 1), np.stack([b, c, d], 1))]
-            row_of += [np.full(2 * len(i), row)]
+            strip, _ = checker_triangles(np.column_stack([low, high]), first_row=row)
+            triangles.append(strip)
+            row_of.append(np.full(len(strip), row))
             continue
         coarse, fine = (low, high) if len(low) < len(high) else (high, low)
         if len(fine) != 2 * len(coarse) - 1:
@@ -426,19 +423,23 @@ def banded_triangles(grid: IntArray) -> tuple[IntArray, IntArray]:
                  np.stack([right, middle, last], 1)]
         # Counter-clockwise as written where the coarser line is the upper (+y) one.
         triangles += three if len(high) < len(low) else [t[:, ::-1] for t in three]
-        row_of += [np.full(3 * len(j), row)]
+        row_of.append(np.full(3 * len(j), row))
     return np.concatenate(triangles), np.concatenate(row_of)
 
 
-def checker_triangles(grid: IntArray) -> tuple[IntArray, IntArray]:
-    """Counter-clockwise triangles of a structured grid, diagonals in a checker pattern."""
+def checker_triangles(grid: IntArray, first_row: int = 0) -> tuple[IntArray, IntArray]:
+    """Counter-clockwise triangles of a structured grid, diagonals in a checker pattern.
+
+    ``first_row``: the row of the whole mesh the grid's first row of cells is, for the
+    checker's parity (a strip of a :func:`banded_triangles` mesh).
+    """
     columns, rows = grid.shape[0] - 1, grid.shape[1] - 1
     i, j = np.meshgrid(np.arange(columns), np.arange(rows), indexing='ij')
     i, j = i.ravel(), j.ravel()
     a, b = grid[i, j], grid[i + 1, j]
     c, d = grid[i + 1, j + 1], grid[i, j + 1]
     # Diagonal a-c on even cells, b-d on odd: mirror-symmetric in x and y for even counts.
-    even = ((i + j) % 2 == 0)
+    even = ((i + j + first_row) % 2 == 0)
     first = np.where(even[:, None], np.stack([a, b, c], 1), np.stack([a, b, d], 1))
     second = np.where(even[:, None], np.stack([a, c, d], 1), np.stack([b, c, d], 1))
     return np.concatenate([first, second]), np.concatenate([j, j])
