@@ -5,6 +5,8 @@ import subprocess
 import threading
 import time
 
+from ros_graph import START_S
+
 CONTROL = 'period_s: 60.0, shading_target: 0.9, min_dwell_s: 300.0, default_closure: 1.0'
 
 
@@ -73,6 +75,25 @@ def end_day(graph, bringup, output, exit_timeout_s):
     assert output.wait_for(graph, 'day finished', 240), output.text
     bringup.wait(timeout=exit_timeout_s)
     output.rest(graph)
+
+
+def killed_as_hung_and_restarted(graph, bringup, output, reason, victim):
+    """Wait for ``facade`` to kill ``victim`` as hung for ``reason``, restart it, end the day.
+
+    Return the monotonic time the kill was read.
+    """
+    hung = output.wait_for(graph, f'hung ({reason}), killed', 60)
+    read = time.monotonic()
+    assert hung and f'(pid {victim})' in hung, output.text
+    assert output.wait_for(graph, 'restarted (pid', START_S), output.text
+    end_day(graph, bringup, output, 60)
+    return read
+
+
+def assert_one_restart_and_every_panel(bringup, text):
+    """Assert the day ended well with its 4 panels, one panel process dead and restarted."""
+    assert bringup.returncode == 0, text
+    assert 'panels reporting: 4/4' in text and '1 deaths, 1 restarts' in text, text
 
 
 def finish(graph, process, timeout_s):

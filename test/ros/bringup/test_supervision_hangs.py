@@ -9,9 +9,10 @@ bringup days run side by side under ``--dist loadfile``.
 import subprocess
 import time
 
-from bringup_day import begin_day, end_day, panel_processes_of, start_day
+from bringup_day import (assert_one_restart_and_every_panel, begin_day,
+                         killed_as_hung_and_restarted, panel_processes_of, start_day)
 import pytest
-from ros_graph import domain_for, Graph, START_S
+from ros_graph import domain_for, Graph
 
 from flectofold_ros.bringup.cli import HUNG_S
 
@@ -26,16 +27,12 @@ def test_a_hung_panel_process_is_killed_and_restarted(small_facade_file):
         victim = panel_processes_of(bringup.pid)[0]
         subprocess.run(['kill', '-STOP', str(victim)], check=True)
         stopped = time.monotonic()
-        hung = output.wait_for(graph, 'hung (silent for 15 s), killed', 60)
-        assert hung and f'(pid {victim})' in hung, output.text
-        assert time.monotonic() - stopped >= HUNG_S - 2.0  # its last report came up to 1 s before
-        assert output.wait_for(graph, 'restarted (pid', START_S), output.text
-        end_day(graph, bringup, output, 60)
+        killed = killed_as_hung_and_restarted(graph, bringup, output, 'silent for 15 s', victim)
+        assert killed - stopped >= HUNG_S - 2.0  # its last report came up to 1 s before
     finally:
         graph.close()
     text = output.text
-    assert bringup.returncode == 0, text
-    assert 'panels reporting: 4/4' in text and '1 deaths, 1 restarts' in text, text
+    assert_one_restart_and_every_panel(bringup, text)
     assert 'panel_group 0/2 died at 11:' in text and 'hung (silent for 15 s), killed' in text
 
 
@@ -49,12 +46,9 @@ def test_a_panel_process_that_hangs_before_its_first_report_is_killed_and_restar
         victim = panel_processes_of(bringup.pid)[0]
         subprocess.run(['kill', '-STOP', str(victim)], check=True)
         assert output.wait_for(graph, 'starting the day anyway', 120), output.text
-        hung = output.wait_for(graph, 'hung (no report 60 s after its start), killed', 60)
-        assert hung and f'(pid {victim})' in hung, output.text
-        assert output.wait_for(graph, 'restarted (pid', START_S), output.text
-        end_day(graph, bringup, output, 60)
+        killed_as_hung_and_restarted(graph, bringup, output,
+                                     'no report 60 s after its start', victim)
     finally:
         graph.close()
     text = output.text
-    assert bringup.returncode == 0, text
-    assert 'panels reporting: 4/4' in text and '1 deaths, 1 restarts' in text, text
+    assert_one_restart_and_every_panel(bringup, text)
