@@ -226,6 +226,40 @@ def at_fixed(paths, along):
                   f'it by {offs}', flush=True)
 
 
+def against_reference(meshes, trace):
+    """Trace ``trace(mesh)`` on each of ``(label, mesh)``, the first the reference.
+
+    Yields label, path, its CPU and the airs to compare it at with the reference's: 5-97 % of
+    the reference's air to its end; None for the reference itself and for a path that ends
+    short of them.
+    """
+    reference = None
+    for label, mesh in meshes:
+        path, cpu = cpu_of(lambda: trace(mesh))
+        airs = None
+        if reference is None:
+            reference = path
+        else:
+            # Paths count their air from the open state: air_m3[0] is 0.
+            airs = np.linspace(0.05, 0.97, 185) * reference.air_m3[-1]
+            if path.air_m3[-1] < airs[-1]:
+                airs = None
+        yield label, path, cpu, reference, airs
+
+
+def largest_off(airs, path, reference, values, where=None):
+    """Return the largest relative distance of ``values(path)`` from the reference's.
+
+    Read at ``airs`` (only where ``where`` is True, if given); with the air it is at.
+    """
+    off = (np.interp(airs, path.air_m3, values(path))
+           / np.interp(airs, reference.air_m3, values(reference)) - 1.0)
+    if where is not None:
+        off = np.where(where, off, 0.0)
+    worst = int(np.argmax(np.abs(off)))
+    return off[worst], airs[worst]
+
+
 def converged(names):
     """Tip travel and pressure of the converged and default meshes against the reference's."""
     chosen = presets()
@@ -238,26 +272,18 @@ def converged(names):
                          if m.outer_columns else '')
                       for label, m in meshes) + ' ==')
     for name in names or chosen:
-        paths = {}
-        for label, mesh in meshes:
-            path, cpu = cpu_of(lambda: structural_path(chosen[name], mesh))
-            paths[label] = path
+        for label, path, cpu, reference, airs in against_reference(
+                meshes, lambda mesh: structural_path(chosen[name], mesh)):
             line = (f'{name}, {label}: {path.node_count} nodes, {len(path.pressure_pa) - 1} '
                     f'equilibria, {cpu:.1f} s CPU, ended {path.ended[:48]}, air to end '
                     f'{(path.air_m3[-1] - path.air_m3[0]) * 1e3:.2f} L')
-            if label != 'reference':
-                reference = paths['reference']
-                span = reference.air_m3[-1] - reference.air_m3[0]
-                airs = reference.air_m3[0] + np.linspace(0.05, 0.97, 185) * span
-                if path.air_m3[-1] < airs[-1]:
-                    print(line + '; ends short of the reference', flush=True)
-                    continue
+            if path is not reference and airs is None:
+                line += '; ends short of the reference'
+            elif airs is not None:
                 for key, word in (('tip_travel_m', 'tip travel'), ('pressure_pa', 'pressure')):
-                    off = (np.interp(airs, path.air_m3, getattr(path, key))
-                           / np.interp(airs, reference.air_m3, getattr(reference, key)) - 1.0)
-                    worst = int(np.argmax(np.abs(off)))
-                    line += (f'; {word} at most {off[worst] * 100:+.2f} % off (at '
-                             f'{(airs[worst] - reference.air_m3[0]) * 1e3:.2f} L)')
+                    off, air = largest_off(airs, path, reference,
+                                           lambda p, key=key: getattr(p, key))
+                    line += f'; {word} at most {off * 100:+.2f} % off (at {air * 1e3:.2f} L)'
             print(line, flush=True)
 
 
@@ -269,32 +295,22 @@ def hexagon_converged():
           '5-97 % of its air: the tip relative where it has moved more than 10 mm, else in mm; '
           + '; '.join(f'{label} {m.columns} rays, rows {m.centre_rows} / {m.hinge_rows} / '
                       f'{m.flap_rows} (central / hinge / flap)' for label, m in meshes) + ' ==')
-    paths = {}
-    for label, mesh in meshes:
-        path, cpu = cpu_of(lambda: hexagon_structural_path(HEXAGON_ACTUATED, mesh))
-        paths[label] = path
+    for label, path, cpu, reference, airs in against_reference(
+            meshes, lambda mesh: hexagon_structural_path(HEXAGON_ACTUATED, mesh)):
         line = (f'{label}: {path.node_count} nodes, {len(path.pressure_pa) - 1} equilibria, '
                 f'{cpu:.1f} s CPU, ended {path.ended[:48]}; at the end {path.air_m3[-1] * 1e3:.2f}'
                 f' L, {path.pressure_pa[-1]:.0f} Pa, tip {path.tip_travel_m[-1] * 1e3:.1f} mm')
-        if label != 'reference':
-            reference = paths['reference']
-            airs = np.linspace(0.05, 0.97, 185) * reference.air_m3[-1]
-            if path.air_m3[-1] < airs[-1]:
-                print(line + '; ends short of the reference', flush=True)
-                continue
-            tip = np.interp(airs, path.air_m3, path.tip_travel_m)
+        if path is not reference and airs is None:
+            line += '; ends short of the reference'
+        elif airs is not None:
             theirs = np.interp(airs, reference.air_m3, reference.tip_travel_m)
             moved = theirs > 0.01
-            off = np.where(moved, tip / theirs - 1.0, 0.0)
-            worst = int(np.argmax(np.abs(off)))
-            line += (f'; tip at most {off[worst] * 100:+.2f} % off (at {airs[worst] * 1e3:.1f} '
-                     f'L), {np.max(np.abs(tip - theirs)[~moved], initial=0.0) * 1e3:.2f} mm '
-                     f'where under 10 mm')
-            pressure = (np.interp(airs, path.air_m3, path.pressure_pa)
-                        / np.interp(airs, reference.air_m3, reference.pressure_pa) - 1.0)
-            worst = int(np.argmax(np.abs(pressure)))
-            line += (f'; pressure at most {pressure[worst] * 100:+.2f} % off (at '
-                     f'{airs[worst] * 1e3:.1f} L)')
+            off, air = largest_off(airs, path, reference, lambda p: p.tip_travel_m, moved)
+            under = np.abs(np.interp(airs, path.air_m3, path.tip_travel_m) - theirs)[~moved]
+            line += (f'; tip at most {off * 100:+.2f} % off (at {air * 1e3:.1f} L), '
+                     f'{np.max(under, initial=0.0) * 1e3:.2f} mm where under 10 mm')
+            off, air = largest_off(airs, path, reference, lambda p: p.pressure_pa)
+            line += f'; pressure at most {off * 100:+.2f} % off (at {air * 1e3:.1f} L)'
         print(line, flush=True)
 
 
