@@ -148,9 +148,8 @@ STRUCTURAL_MESHES = {
     # The quad's converged mesh with its columns only in the hinge bands; no hexagon one.
     'banded': (BANDED_MESH, None),
 }
-#: The name in :data:`STRUCTURAL_MESHES` of each kind's mesh when none is asked for: quad,
-#: hexagon.
-UNASKED_MESH = ('converged', 'converged')
+#: The name in :data:`STRUCTURAL_MESHES` of the mesh taken when none is asked for (either kind).
+UNASKED_MESH = 'converged'
 
 
 def structural_fold_table(panel, steps, mesh=None, rrd_path=None):
@@ -168,7 +167,7 @@ def structural_fold_table(panel, steps, mesh=None, rrd_path=None):
         from flectofold_ros.rerun.structure_scene import save_structural_path
         rrd_path = check_rrd_path(rrd_path)
     hexagon = isinstance(panel, HexagonPanel)
-    default = STRUCTURAL_MESHES[UNASKED_MESH[hexagon]][hexagon]
+    default = STRUCTURAL_MESHES[UNASKED_MESH][hexagon]
     mesh = default if mesh is None else mesh
     actuated = actuated_preset(panel)
 
@@ -228,7 +227,7 @@ def structural_fold_table(panel, steps, mesh=None, rrd_path=None):
     else:
         lines.append(f'the path ended at {reached:.1f} deg apex fold: {path.ended}')
     if mesh.columns < default.columns or mesh.hinge_rows < default.hinge_rows:
-        lines.append(f'a mesh coarser than the {UNASKED_MESH[hexagon]} one: '
+        lines.append(f'a mesh coarser than the {UNASKED_MESH} one: '
                      'its pressures, pressure maxima and strains are not converged, and too few '
                      'hinge rows make pressure maxima that finer meshes do not have '
                      '(msg_docs/structure.md)')
@@ -387,7 +386,7 @@ def main(args=None):
     panel = PANELS[options.panel]
     if options.model == 'structural':
         hexagon = isinstance(panel, HexagonPanel)
-        chosen = options.mesh or UNASKED_MESH[hexagon]
+        chosen = options.mesh or UNASKED_MESH
         mesh = STRUCTURAL_MESHES[chosen][hexagon]
         if mesh is None:
             parser.error(f'--mesh {chosen} is for quad panels: the hexagon has no banded mesh '
